@@ -1,0 +1,125 @@
+"""The channel spec: the single contract between the baker that writes samples and the network that reads them.
+
+A dataset sample is one single-part OpenEXR file whose channels are named ``<group>.<component>``, for
+example ``albedo.R`` or ``depth.Z``. The groups a sample may hold are listed in ``GROUPS``. Nothing else in
+the project hard-codes channel names or indices: ask this module.
+
+An *input spec* is an ordered tuple of input group names (stored groups, or the derived group ``lit``). It is
+written as a comma-separated string, e.g. ``"albedo,normal,depth,direct,lit"``; ``parse_spec`` checks it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .errors import UserError
+
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Group:
+    name: str
+    components: tuple[str, ...]
+    kind: str  # "color" [0,1] | "normal" unit vector | "depth" metres | "light" HDR >= 0 | "unit" [0,1] | "alpha"
+    source: str  # which renderer writes it, for the docs and the node
+    blender_pass: str | None  # Blender view-layer pass that produces it (None: derived or Combined)
+    units: str
+    doc: str
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}.{c}" for c in self.components)
+
+    @property
+    def size(self) -> int:
+        return len(self.components)
+
+
+GROUPS: dict[str, Group] = {g.name: g for g in (
+    Group("albedo", ("R", "G", "B"), "color", "eevee", "use_pass_diffuse_color", "reflectance",
+          "EEVEE Diffuse Color pass."),
+    Group("normal", ("X", "Y", "Z"), "normal", "eevee", "use_pass_normal", "unit vector",
+          "Shading normal in CAMERA space (+X right, +Y up, +Z towards the camera); (0,0,0) where nothing is hit."),
+    Group("depth", ("Z",), "depth", "eevee", "use_pass_z", "scene units",
+          "EEVEE Depth pass: distance along the view axis; the camera's clip end (or larger) where nothing is hit."),
+    Group("direct", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
+          "EEVEE Diffuse Direct light with hard shadows (tiny lights, no GI, black world)."),
+    Group("ao", ("Y",), "unit", "eevee", "use_pass_ambient_occlusion", "[0,1]",
+          "EEVEE Ambient Occlusion pass (grey, one channel kept)."),
+    Group("eevee", ("R", "G", "B", "A"), "light", "eevee", None, "linear radiance (HDR)",
+          "EEVEE's own direct-lit Combined image with the same hard lights; the 'local illumination' baseline."),
+    Group("ref", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
+          "Cycles path-traced reference with the lights' real radius: the training target."),
+)}
+
+# Derived input groups: computed from stored groups, never stored or rendered themselves.
+DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
+    "lit": (("albedo", "direct"), 3, "albedo * direct: the direct-lit diffuse image (linear radiance, HDR)."),
+}
+
+# Groups every sample holds. "eevee" and "ref" are not network inputs.
+SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "eevee", "ref")
+INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "lit")
+TARGET_GROUP = "ref"
+# The seed's 13 inputs.
+DEFAULT_INPUTS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "lit")
+
+
+def group_size(name: str) -> int:
+    if name in GROUPS:
+        return GROUPS[name].size
+    if name in DERIVED:
+        return DERIVED[name][1]
+    raise UserError(f"unknown channel group {name!r}; known: {', '.join(INPUT_GROUPS)}")
+
+
+def parse_spec(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """Parse an input spec ("albedo,normal,...") into a tuple of group names, or raise UserError naming the fault."""
+    if isinstance(spec, str):
+        names = [s.strip() for s in spec.split(",")]
+    else:
+        names = [str(s).strip() for s in spec]
+    if not names or names == [""]:
+        raise UserError("channel spec is empty: name at least one input group, e.g. 'albedo,normal,depth,direct'")
+    seen = set()
+    for n in names:
+        if n == "":
+            raise UserError(f"channel spec {spec!r} has an empty group name")
+        if n not in INPUT_GROUPS:
+            raise UserError(f"channel spec names unknown input group {n!r}; known: {', '.join(INPUT_GROUPS)}")
+        if n in seen:
+            raise UserError(f"channel spec names group {n!r} twice")
+        seen.add(n)
+    return tuple(names)
+
+
+def format_spec(spec: tuple[str, ...]) -> str:
+    return ",".join(spec)
+
+
+def input_channels(spec: tuple[str, ...]) -> int:
+    return sum(group_size(g) for g in spec)
+
+
+def required_groups(spec: tuple[str, ...]) -> tuple[str, ...]:
+    """Stored groups needed to build the inputs of ``spec`` (derived groups expanded), in spec order."""
+    out: list[str] = []
+    for g in spec:
+        for s in (DERIVED[g][0] if g in DERIVED else (g,)):
+            if s not in out:
+                out.append(s)
+    return tuple(out)
+
+
+def required_passes(spec: tuple[str, ...]) -> tuple[str, ...]:
+    """Blender view-layer pass flags (``use_pass_*``) needed for ``spec``."""
+    return tuple(GROUPS[g].blender_pass for g in required_groups(spec) if GROUPS[g].blender_pass)
+
+
+def describe() -> list[dict]:
+    """The channel spec as plain data, for manifests and checkpoints."""
+    out = [dict(name=g.name, channels=list(g.channels), kind=g.kind, source=g.source, units=g.units, doc=g.doc)
+           for g in GROUPS.values()]
+    for name, (deps, size, doc) in DERIVED.items():
+        out.append(dict(name=name, derived_from=list(deps), size=size, kind="light", doc=doc))
+    return out

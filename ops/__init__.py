@@ -1,0 +1,1 @@
+"""Thin Operator classes: parse the user's intent, call ssgi_addon / model, report."""

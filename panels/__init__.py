@@ -1,0 +1,1 @@
+"""UI panels: draw state, never compute."""

@@ -1,0 +1,29 @@
+"""The SSGI panel in Render properties; feature panels are its children."""
+from __future__ import annotations
+
+import bpy
+
+from ..ssgi_addon import deps
+
+
+class SSGI_PT_main(bpy.types.Panel):
+    bl_label = "SSGI"
+    bl_idname = "SSGI_PT_main"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        ok, info = deps.torch_status()
+        if not ok:
+            col = layout.column()
+            col.label(text="PyTorch missing: training, prediction and the SSGI node are off.", icon="ERROR")
+            col.label(text="Randomize and Bake still work. Install it from Preferences > Add-ons > SSGI.")
+        settings = getattr(context.scene, "ssgi", None)
+        if settings is not None:
+            layout.prop(settings, "dataset_dir")
+            layout.prop(settings, "model_path")
+
+
+CLASSES = (SSGI_PT_main,)

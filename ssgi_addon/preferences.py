@@ -1,0 +1,52 @@
+"""Add-on preferences: the dependency installer and the torch thread count."""
+from __future__ import annotations
+
+import bpy
+
+from . import deps, jobs
+
+
+def prefs(context=None):
+    from . import root_package
+    context = context or bpy.context
+    addon = context.preferences.addons.get(root_package())
+    return addon.preferences if addon else None
+
+
+def torch_threads(context=None) -> int:
+    """Threads torch uses in Blender. One thread was several times faster than two in a process that also
+    renders on this 2-core machine (shared/blender5-notes.md), hence the default."""
+    p = prefs(context)
+    return int(p.torch_threads) if p else 1
+
+
+class SSGI_AddonPreferences(bpy.types.AddonPreferences):
+    bl_idname = __package__.rsplit(".", 1)[0]
+
+    torch_threads: bpy.props.IntProperty(
+        name="Torch threads", default=1, min=1, max=64,
+        description="CPU threads for training and prediction inside Blender (1 keeps the UI and renders responsive)")
+
+    def draw(self, context):
+        layout = self.layout
+        ok, info = deps.torch_status()
+        box = layout.box()
+        box.label(text=f"PyTorch: {info}" if ok else "PyTorch: not installed", icon="CHECKMARK" if ok else "ERROR")
+        d = deps.deps_dir()
+        box.label(text=f"Install folder: {d}" if d else "Install folder: (not an installed extension)")
+        job = jobs.get("deps")
+        if job and not job.done:
+            box.label(text=f"Installing... {job.state.get('message', '')[:80]}")
+            box.operator("ssgi.cancel_job", text="Cancel").job = "deps"
+        else:
+            if job and job.error:
+                box.label(text=f"Install failed: {job.state.get('message', '')[:100]}", icon="ERROR")
+            row = box.row()
+            row.enabled = bool(bpy.app.online_access)
+            row.operator("ssgi.install_deps", icon="IMPORT")
+            if not bpy.app.online_access:
+                box.label(text="Allow online access in Preferences > System to install", icon="INFO")
+        layout.prop(self, "torch_threads")
+
+
+CLASSES = (SSGI_AddonPreferences,)

@@ -1,0 +1,67 @@
+"""Shared test fixtures. Tests use the real bpy module (no fakes).
+
+Every test process runs with ``BLENDER_USER_RESOURCES`` pointing at a fresh temporary folder and factory
+settings, isolated from the user's own Blender config. EEVEE renders run in a subprocess (``run_py``), so
+that a GL abort fails one test and not the whole run.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+_USER = tempfile.mkdtemp(prefix="ssgi-test-user-")
+os.environ["BLENDER_USER_RESOURCES"] = _USER
+os.environ.setdefault("PYTHONHASHSEED", "0")
+sys.path.insert(0, str(ROOT))
+
+import cli  # noqa: E402
+
+cli.load_package()  # the repository imported as package "ssgi"
+
+
+def run_py(code: str, *args: str, timeout: float = 600, cwd: Path | None = None, env: dict | None = None,
+           check: bool = True) -> subprocess.CompletedProcess:
+    """Run ``code`` in a fresh Python of this venv (with bpy importable and the package loaded as ``ssgi``),
+    isolated user resources. Returns the CompletedProcess; with ``check``, a non-zero exit fails the test
+    and shows stderr."""
+    user = tempfile.mkdtemp(prefix="ssgi-test-user-")
+    prelude = f"import sys; sys.path.insert(0, {str(ROOT)!r}); import cli; cli.load_package()\n"
+    e = dict(os.environ, BLENDER_USER_RESOURCES=user, PYTHONHASHSEED="0")
+    e.update(env or {})
+    p = subprocess.run([sys.executable, "-c", prelude + textwrap.dedent(code), *args], capture_output=True,
+                       text=True, timeout=timeout, cwd=cwd or ROOT, env=e)
+    if check and p.returncode != 0:
+        pytest.fail(f"subprocess exited {p.returncode}\n--- stdout\n{p.stdout[-4000:]}\n--- stderr\n{clean(p.stderr)[-6000:]}")
+    return p
+
+
+def run_cli(*args: str, timeout: float = 600, check: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
+    """Run ``cli.py ARGS`` in a subprocess with isolated user resources."""
+    user = tempfile.mkdtemp(prefix="ssgi-test-user-")
+    e = dict(os.environ, BLENDER_USER_RESOURCES=user, PYTHONHASHSEED="0")
+    e.update(env or {})
+    p = subprocess.run([sys.executable, str(ROOT / "cli.py"), *args], capture_output=True, text=True,
+                       timeout=timeout, cwd=ROOT, env=e)
+    if check and p.returncode != 0:
+        pytest.fail(f"cli.py {' '.join(args)} exited {p.returncode}\n--- stdout\n{p.stdout[-4000:]}\n--- stderr\n{clean(p.stderr)[-6000:]}")
+    return p
+
+
+def clean(stderr: str) -> str:
+    """Drop Mesa's harmless EGL chatter."""
+    return "\n".join(l for l in stderr.splitlines() if "EGL Error" not in l and "EGL_BAD" not in l)
+
+
+@pytest.fixture
+def factory_bpy():
+    """The real bpy module, reset to factory settings."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy
