@@ -16,10 +16,10 @@ test: $(STAMP)
 	$(PY) -m pytest -q tests
 
 build: $(STAMP)
-	$(PY) $$($(PY) -c 'import bpy,os;print(os.path.join(os.path.dirname(bpy.__file__),"5.0/scripts/addons_core/bl_pkg/cli/blender_ext.py"))') build --source-dir . --output-dir dist
+	$(PY) scripts/blender_ext.py build --source-dir . --output-dir dist
 
 validate: $(STAMP)
-	$(PY) $$($(PY) -c 'import bpy,os;print(os.path.join(os.path.dirname(bpy.__file__),"5.0/scripts/addons_core/bl_pkg/cli/blender_ext.py"))') validate .
+	$(PY) scripts/blender_ext.py validate .
 
 clean:
 	rm -rf dist out .pytest_cache

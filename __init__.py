@@ -42,6 +42,8 @@ def register():
 def unregister():
     import bpy
 
+    from .ssgi_addon import jobs
+    jobs.shutdown()
     for m in reversed(_modules()):
         if hasattr(m, "unregister_extra"):
             m.unregister_extra()

@@ -133,3 +133,17 @@ def ensure_timer() -> None:
     import bpy
     if not bpy.app.timers.is_registered(_timer):
         bpy.app.timers.register(_timer, first_interval=0.1, persistent=True)
+
+
+def shutdown() -> None:
+    """On unregister: ask running jobs to stop and take the UI timer away, so nothing of the add-on keeps
+    running after it is disabled. Workers never touch bpy, so a worker finishing later is harmless."""
+    for j in _JOBS.values():
+        if not j.done:
+            j.cancel()
+    try:
+        import bpy
+        if bpy.app.timers.is_registered(_timer):
+            bpy.app.timers.unregister(_timer)
+    except Exception:
+        pass
