@@ -1,43 +1,101 @@
 #!/usr/bin/env bash
 # Create .venv/ with Python 3.11 and the pinned dependencies (requirements.lock), and install the system
-# EGL/Mesa libraries headless EEVEE needs when they are missing (without them the process aborts).
+# libraries bpy and headless EEVEE need when they are missing (without EGL/Mesa the process aborts).
+#
+#   bash scripts/setup.sh                  full setup (what `make setup` runs)
+#   bash scripts/setup.sh --print-missing  only list the missing Debian packages, install nothing
+#
+# Environment: PYTHON=/path/to/python3.11 picks the interpreter; SSGI_EXTRA_SYSTEM_PACKAGES adds packages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# Debian packages: what bpy's shared objects link against (ldd on bpy/__init__.so) and what a headless
+# EEVEE render loads at run time (libEGL + Mesa's EGL driver + llvmpipe/swrast DRI driver); their own
+# dependencies (libdrm, libllvm, libxcb-*, ...) come with them through apt.
+SYSTEM_PACKAGES=(libx11-6 libxext6 libxrender1 libxfixes3 libxi6 libxxf86vm1 libxkbcommon0 libsm6 libice6
+                 libgl1 libegl1 libegl-mesa0 libgl1-mesa-dri)
+# shellcheck disable=SC2206
+SYSTEM_PACKAGES+=(${SSGI_EXTRA_SYSTEM_PACKAGES:-})
+
+missing_packages() {
+  local p
+  if command -v dpkg-query >/dev/null; then
+    for p in "${SYSTEM_PACKAGES[@]}"; do
+      dpkg-query -W -f='${Status}\n' "$p" 2>/dev/null | grep -q '^install ok installed$' || echo "$p"
+    done
+  fi
+}
+
+if [ "${1:-}" = "--print-missing" ]; then
+  missing_packages
+  exit 0
+fi
+
+say() { echo "setup: $*" >&2; }
+T0=$(date +%s)
+
+# --- system libraries ------------------------------------------------------------------------------------
+if command -v dpkg-query >/dev/null; then
+  mapfile -t need < <(missing_packages)
+  if [ ${#need[@]} -gt 0 ]; then
+    say "installing system libraries: ${need[*]}"
+    SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq >&2 || say "apt-get update failed; trying the install with the package lists on disk"
+    if ! $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${need[@]}" >&2; then
+      say "ERROR: could not install ${need[*]} (bpy and headless EEVEE need them); install them and run again"
+      exit 1
+    fi
+  fi
+else
+  say "WARNING: not a Debian system; make sure libEGL, Mesa's EGL and DRI drivers, libGL, libX11, libXi,"
+  say "         libXrender, libXfixes, libxkbcommon and libSM are installed (headless EEVEE aborts without EGL)"
+fi
+
+# --- Python 3.11 -------------------------------------------------------------------------------------------
+is311() { "$1" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' >/dev/null 2>&1; }
 PY=${PYTHON:-}
 if [ -z "$PY" ]; then
-  for c in python3.11 python3; do
-    if command -v "$c" >/dev/null && "$c" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then PY=$c; break; fi
+  cands=(python3.11 python3)
+  if command -v pyenv >/dev/null; then
+    for v in $(pyenv versions --bare 2>/dev/null | grep -E '^3\.11(\.|$)' | sort -t. -k3 -n -r); do
+      cands+=("$(pyenv root)/versions/$v/bin/python3.11")
+    done
+  fi
+  for c in "${cands[@]}"; do
+    if command -v "$c" >/dev/null && is311 "$c"; then PY=$c; break; fi
   done
 fi
-if [ -z "$PY" ]; then
-  echo "setup: Python 3.11 is required (bpy 5.0.1 exists only for 3.11); set PYTHON=/path/to/python3.11" >&2
+if [ -z "$PY" ] || ! is311 "$PY"; then
+  say "ERROR: Python 3.11 is required (bpy 5.0.1 exists only for 3.11); set PYTHON=/path/to/python3.11"
   exit 1
 fi
 
-# System libraries for headless EEVEE (Mesa EGL + llvmpipe) and bpy's X/GL dependencies.
-need=()
-ldconfig -p | grep -q 'libEGL_mesa.so' || need+=(libegl-mesa0)
-ldconfig -p | grep -q 'libEGL.so.1' || need+=(libegl1)
-[ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
-ldconfig -p | grep -q 'libxkbcommon.so.0' || need+=(libxkbcommon0)
-ldconfig -p | grep -q 'libSM.so.6' || need+=(libsm6)
-ldconfig -p | grep -q 'libXi.so.6' || need+=(libxi6)
-ldconfig -p | grep -q 'libXxf86vm.so.1' || need+=(libxxf86vm1)
-ldconfig -p | grep -q 'libXfixes.so.3' || need+=(libxfixes3)
-ldconfig -p | grep -q 'libXrender.so.1' || need+=(libxrender1)
-if [ ${#need[@]} -gt 0 ]; then
-  echo "setup: installing system libraries: ${need[*]}" >&2
-  SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq && $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >&2
+if [ -e .venv ] && ! is311 .venv/bin/python; then
+  say ".venv exists but its python is not a working 3.11: making it again"
+  rm -rf .venv
 fi
-
 if [ ! -x .venv/bin/python ]; then
-  echo "setup: creating .venv with $PY" >&2
+  say "creating .venv with $PY ($("$PY" -c 'import sys; print(sys.executable)'))"
   "$PY" -m venv .venv
 fi
-# torch==2.13.0 (CPU build) is taken from the local wheel folder on this machine kind; elsewhere pip would
-# fetch the CUDA build of the same version.
-.venv/bin/python -m pip install --disable-pip-version-check -q -r requirements.lock
-.venv/bin/python -c 'import bpy, torch, numpy, OpenEXR; print("setup: bpy", bpy.app.version_string, "torch", torch.__version__, "numpy", numpy.__version__)' 2>&1 | grep -v EGL >&2
+
+# --- Python packages ---------------------------------------------------------------------------------------
+# requirements.lock pins every package, torch==2.13.0+cpu included. On this machine kind pip finds that wheel
+# in its configured local wheel folder; elsewhere it is on the PyTorch CPU index, tried when the first
+# attempt fails.
+PIP=(.venv/bin/python -m pip install --disable-pip-version-check --no-input -q)
+if ! "${PIP[@]}" -r requirements.lock; then
+  say "pip failed; trying again with the PyTorch CPU index for torch==2.13.0+cpu"
+  "${PIP[@]}" --extra-index-url https://download.pytorch.org/whl/cpu -r requirements.lock
+fi
+
+# --- checks --------------------------------------------------------------------------------------------
+BPY_SO=$(.venv/bin/python -c 'import importlib.util as u, os; print(os.path.join(u.find_spec("bpy").submodule_search_locations[0], "__init__.so"))')
+if ldd "$BPY_SO" | grep -q 'not found'; then
+  say "ERROR: bpy needs system libraries that are missing:"; ldd "$BPY_SO" | grep 'not found' >&2; exit 1
+fi
+out=$(.venv/bin/python -c 'import bpy, torch, numpy, OpenEXR; print("bpy", bpy.app.version_string, "torch", torch.__version__, "numpy", numpy.__version__)' 2>&1) \
+  || { say "ERROR: the new environment does not import:"; echo "$out" | grep -v EGL >&2; exit 1; }
+say "$(echo "$out" | grep -v EGL | tail -1)"
 touch .venv/.ssgi-setup-done
+say "done in $(( $(date +%s) - T0 )) s; .venv uses $(du -sh .venv | cut -f1)"
