@@ -1,0 +1,263 @@
+"""Operators of the SSGI node: add the node, Set up SSGI, Render SSGI Image/Animation (``bpy.ops.ssgi.render``).
+
+``bpy.ops.ssgi.render(animation=False)`` runs the whole render synchronously (scripts, ``blender -b``);
+invoked from the UI it renders one frame per timer tick, shows progress, and Esc or the Cancel button stops
+between frames, keeping the frames already written.
+"""
+from __future__ import annotations
+
+import bpy
+
+from ..model import channels as ch
+from ..model.errors import UserError
+from ..ssgi_addon import node as ssgi_node
+from ..ssgi_addon import render as ssgi_render
+
+
+def _compositor_tree(context):
+    space = context.space_data
+    tree = getattr(space, "edit_tree", None) if space is not None and space.type == "NODE_EDITOR" else None
+    if tree is not None and tree.bl_idname == "CompositorNodeTree":
+        return tree
+    return None
+
+
+def setup_scene(scene, model: str | None = None) -> dict:
+    """Set up SSGI: check the model, enable the passes it needs on the first view layer, wire Render Layers ->
+    SSGI -> the output keeping the artist's nodes after it. The model is checked before anything changes."""
+    path = ssgi_node.resolve_model(scene, model)
+    pred = ssgi_render.load_model(path)
+    vl = scene.view_layers[0]
+    enabled = []
+    for flag in ch.required_passes(tuple(pred.spec)):
+        if not getattr(vl, flag):
+            setattr(vl, flag, True)
+            enabled.append(flag)
+    tree, node, rl = ssgi_node.wire(scene, vl)
+    if model:
+        node[ssgi_node.MODEL_PROP] = model
+    scene.render.use_compositing = True
+    return {"tree": tree.name, "node": node.name, "enabled_passes": enabled, "model": str(path)}
+
+
+class SSGI_OT_add_node(bpy.types.Operator):
+    """Add the SSGI node: the predicted global illumination of the frame rendered with Render SSGI"""
+    bl_idname = "ssgi.add_node"
+    bl_label = "SSGI"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return _compositor_tree(context) is not None
+
+    def execute(self, context):
+        tree = _compositor_tree(context)
+        for n in tree.nodes:
+            n.select = False
+        loc = getattr(context.space_data, "cursor_location", (0.0, 0.0))
+        node = ssgi_node.new_node(tree, tuple(loc))
+        node.select = True
+        tree.nodes.active = node
+        return {"FINISHED"}
+
+
+class SSGI_OT_setup(bpy.types.Operator):
+    """Enable the passes the SSGI model needs and wire Render Layers -> SSGI -> output, keeping your nodes"""
+    bl_idname = "ssgi.setup"
+    bl_label = "Set up SSGI"
+    bl_options = {"REGISTER", "UNDO"}
+
+    model: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
+                                    description="Model checkpoint; empty uses the node's, the scene's or the shipped one")
+
+    def execute(self, context):
+        try:
+            info = setup_scene(context.scene, self.model or None)
+        except UserError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        extra = f"; enabled {', '.join(ssgi_render.pass_label(f) for f in info['enabled_passes'])}" if info["enabled_passes"] else ""
+        self.report({"INFO"}, f"SSGI set up in {info['tree']!r}{extra}")
+        return {"FINISHED"}
+
+
+class SSGI_OT_render(bpy.types.Operator):
+    """Render with SSGI: EEVEE passes -> predicted GI -> your compositor -> the output path"""
+    bl_idname = "ssgi.render"
+    bl_label = "Render SSGI"
+
+    animation: bpy.props.BoolProperty(name="Animation", default=False,
+                                      description="Render the scene's frame range (else the current frame)")
+    write_still: bpy.props.BoolProperty(name="Write", default=True,
+                                        description="Write the frame(s) where the scene's output settings say")
+    frame_start: bpy.props.IntProperty(name="Start", default=-1, description="First frame (-1: the scene's)")
+    frame_end: bpy.props.IntProperty(name="End", default=-1, description="Last frame (-1: the scene's)")
+    model: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
+                                    description="Model checkpoint overriding the node's setting")
+    filepath: bpy.props.StringProperty(name="Output", subtype="FILE_PATH", default="",
+                                       description="Output path overriding the scene's (# for frame numbers)")
+    samples: bpy.props.IntProperty(name="Samples", default=0, min=0,
+                                   description="EEVEE samples for the passes (0: the scene's)")
+
+    _session = None
+    _iter = None
+    _timer = None
+
+    def _frames(self, scene):
+        if not self.animation and self.frame_start < 0:
+            return [scene.frame_current]
+        a = self.frame_start if self.frame_start >= 0 else scene.frame_start
+        b = self.frame_end if self.frame_end >= 0 else (scene.frame_end if self.animation else a)
+        if b < a:
+            raise UserError(f"frame range {a}-{b} runs backwards")
+        return list(range(a, b + 1, max(1, scene.frame_step)))
+
+    def _session_for(self, context):
+        scene = context.scene
+        return ssgi_render.RenderSession(scene, self._frames(scene), model=self.model or None,
+                                         out=self.filepath or None, write=self.write_still,
+                                         samples=self.samples or None)
+
+    def execute(self, context):
+        try:
+            session = self._session_for(context)
+            _start_state(len(session.frames))
+            summary = session.run(should_cancel=lambda: ssgi_render.STATE.get("cancel", False))
+        except UserError as e:
+            ssgi_render.STATE.update(status="error", message=str(e))
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        _end_state(session)
+        self.report({"INFO"}, _summary_text(summary))
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        try:
+            self._session = self._session_for(context)
+        except UserError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        _start_state(len(self._session.frames))
+        self._iter = self._session.iter_frames(lambda: ssgi_render.STATE.get("cancel", False))
+        wm = context.window_manager
+        wm.progress_begin(0, len(self._session.frames))
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            ssgi_render.STATE["cancel"] = True
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"} if not ssgi_render.STATE.get("cancel") else self._step(context)
+        return self._step(context)
+
+    def _step(self, context):
+        wm = context.window_manager
+        try:
+            info = next(self._iter)
+        except StopIteration:
+            return self._finish(context)
+        except UserError as e:
+            ssgi_render.STATE.update(status="error", message=str(e))
+            self.report({"ERROR"}, str(e))
+            self._finish(context, report=False)
+            return {"CANCELLED"}
+        n = len(self._session.results)
+        ssgi_render.STATE.update(done=n, progress=n / max(1, len(self._session.frames)),
+                                 message=f"frame {info['frame']} done")
+        wm.progress_update(n)
+        for area in context.screen.areas if context.screen else ():
+            area.tag_redraw()
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context, report=True):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        _end_state(self._session)
+        if report:
+            self.report({"INFO"}, _summary_text(self._session.summary()))
+            if not self._session.cancelled:
+                with _suppress():
+                    bpy.ops.render.view_show("INVOKE_DEFAULT")
+        return {"FINISHED"}
+
+
+def _suppress():
+    import contextlib
+    return contextlib.suppress(Exception)
+
+
+def _start_state(total: int) -> None:
+    ssgi_render.STATE.update(status="running", message="", progress=0.0, done=0, total=total, cancel=False)
+
+
+def _end_state(session) -> None:
+    ssgi_render.STATE.update(status="cancelled" if session.cancelled else "done", progress=1.0,
+                             done=len(session.results), cancel=False,
+                             message=(session.results[-1].get("path", "") if session.results else ""))
+
+
+def _summary_text(summary: dict) -> str:
+    n = len(summary["frames"])
+    what = "cancelled after" if summary["cancelled"] else "rendered"
+    files = summary["files"]
+    return f"SSGI {what} {n} frame(s)" + (f"; last: {files[-1]}" if files else "")
+
+
+class SSGI_OT_render_cancel(bpy.types.Operator):
+    """Stop the SSGI render after the current frame; frames already written are kept"""
+    bl_idname = "ssgi.render_cancel"
+    bl_label = "Cancel SSGI Render"
+
+    def execute(self, context):
+        if ssgi_render.STATE.get("status") != "running":
+            self.report({"WARNING"}, "no SSGI render is running")
+            return {"CANCELLED"}
+        ssgi_render.STATE["cancel"] = True
+        return {"FINISHED"}
+
+
+def draw_add_menu(self, context):
+    if _compositor_tree(context) is None:
+        return
+    self.layout.separator()
+    self.layout.operator(SSGI_OT_add_node.bl_idname, text="SSGI", icon="SHADING_RENDERED")
+
+
+def draw_render_menu(self, context):
+    layout = self.layout
+    layout.separator()
+    layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Image", icon="RENDER_STILL").animation = False
+    layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Animation", icon="RENDER_ANIMATION").animation = True
+
+
+CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_render, SSGI_OT_render_cancel)
+_MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu), ("TOPBAR_MT_render", draw_render_menu))
+
+
+def register_extra():
+    bpy.types.CompositorNodeGroup.ssgi_model = bpy.props.StringProperty(
+        name="Model", subtype="FILE_PATH", default="",
+        description="SSGI model checkpoint (.pt); empty uses the scene's model or the shipped default")
+    for menu, fn in _MENUS:
+        m = getattr(bpy.types, menu, None)
+        if m is not None:
+            m.append(fn)
+    if ssgi_render.on_render_pre not in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.append(ssgi_render.on_render_pre)
+
+
+def unregister_extra():
+    if ssgi_render.on_render_pre in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.remove(ssgi_render.on_render_pre)
+    for menu, fn in _MENUS:
+        m = getattr(bpy.types, menu, None)
+        if m is not None:
+            m.remove(fn)
+    if hasattr(bpy.types.CompositorNodeGroup, "ssgi_model"):
+        del bpy.types.CompositorNodeGroup.ssgi_model

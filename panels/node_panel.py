@@ -1,0 +1,76 @@
+"""Panels of the SSGI node: the compositor sidebar (tab "SSGI") and a child of the SSGI render panel.
+They only draw: the node's model, what the prediction image holds, the render buttons and progress."""
+from __future__ import annotations
+
+import bpy
+
+from ..ssgi_addon import node as ssgi_node
+from ..ssgi_addon import render as ssgi_render
+
+
+def _draw(layout, context):
+    scene = context.scene
+    tree = scene.compositing_node_group
+    nodes = ssgi_node.ssgi_nodes(tree)
+    if not nodes:
+        layout.label(text="No SSGI node in the compositor", icon="INFO")
+        layout.operator("ssgi.setup", icon="NODETREE")
+        return
+    active = tree.nodes.active if tree is not None else None
+    node = active if active is not None and ssgi_node.is_ssgi_node(active) else nodes[0]
+    col = layout.column()
+    if hasattr(node, "ssgi_model"):
+        col.prop(node, "ssgi_model", text="Model")
+    path = ssgi_node.resolve_model(scene)
+    col.label(text=f"Uses: {path.name}" + ("" if path.is_file() else "  (missing!)"),
+              icon="CHECKMARK" if path.is_file() else "ERROR")
+    st = ssgi_node.image_state(scene)
+    if st.get("current"):
+        col.label(text=f"Shows frame {st['frame']} (current)", icon="CHECKMARK")
+    elif st.get("state") == "prediction":
+        col.label(text=f"Stale: holds frame {st['frame']} of {st['scene']!r}", icon="ERROR")
+    else:
+        col.label(text="Placeholder (magenta): render with SSGI", icon="ERROR")
+    layout.operator("ssgi.setup", icon="NODETREE")
+    row = layout.row(align=True)
+    row.operator("ssgi.render", text="Render SSGI Image", icon="RENDER_STILL").animation = False
+    row.operator("ssgi.render", text="Animation", icon="RENDER_ANIMATION").animation = True
+    s = ssgi_render.STATE
+    if s.get("status") == "running":
+        layout.label(text=f"Rendering {s.get('done', 0)}/{s.get('total', 0)} {s.get('message', '')}")
+        layout.operator("ssgi.render_cancel", icon="CANCEL")
+    elif s.get("status") == "error":
+        layout.label(text=s.get("message", "")[:120], icon="ERROR")
+    elif s.get("status") in ("done", "cancelled"):
+        layout.label(text=f"{s['status'].capitalize()}: {s.get('done', 0)} frame(s) {s.get('message', '')}"[:120])
+
+
+class SSGI_PT_node(bpy.types.Panel):
+    bl_label = "SSGI"
+    bl_idname = "SSGI_PT_node"
+    bl_space_type = "NODE_EDITOR"
+    bl_region_type = "UI"
+    bl_category = "SSGI"
+
+    @classmethod
+    def poll(cls, context):
+        space = context.space_data
+        return space is not None and getattr(space, "tree_type", "") == "CompositorNodeTree"
+
+    def draw(self, context):
+        _draw(self.layout, context)
+
+
+class SSGI_PT_render(bpy.types.Panel):
+    bl_label = "SSGI Render"
+    bl_idname = "SSGI_PT_render"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "SSGI_PT_main"
+
+    def draw(self, context):
+        _draw(self.layout, context)
+
+
+CLASSES = (SSGI_PT_node, SSGI_PT_render)
