@@ -20,6 +20,7 @@ import importlib.util
 import json
 import os
 import sys
+import traceback
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent
@@ -28,6 +29,7 @@ PACKAGE = "ssgi"
 # package-relative modules that define register_cli(subparsers); order is the order in --help
 COMMAND_MODULES = [
     "ssgi_addon.info_cli",
+    "model.train_cli",
     "ssgi_addon.render_cli",
 ]
 
@@ -46,26 +48,38 @@ def load_package(name: str = PACKAGE):
     return mod
 
 
-def _add_extension_deps_to_path() -> None:
-    """In a Blender binary, make the dependencies installed by the add-on's installer importable."""
+def in_blender_binary() -> bool:
+    """True when run by a Blender binary (``blender --python cli.py``), False with the bpy module."""
+    bpy = sys.modules.get("bpy")  # a Blender binary has imported bpy before running this script
+    return bpy is not None and not getattr(bpy.app, "module", True)
+
+
+def _add_extension_deps_to_path() -> str | None:
+    """In a Blender binary, make importable what the add-on's "Install Python dependencies" put into the
+    installed extension's user folder (torch). ``SSGI_DEPS_DIR`` names another folder. The venv needs none."""
     d = os.environ.get("SSGI_DEPS_DIR")
-    if d and d not in sys.path:
-        sys.path.insert(0, d)
+    if d:
+        if d not in sys.path:
+            sys.path.insert(0, d)
+        return d
+    if not in_blender_binary():
+        return None
     try:
         pkg = load_package()
-        from importlib import import_module
-        deps = import_module(f"{pkg.__name__}.ssgi_addon.deps")
-        deps.add_to_path()
-    except Exception:
-        pass
+        deps = importlib.import_module(f"{pkg.__name__}.ssgi_addon.deps")
+        found = deps.add_to_path()
+        return str(found) if found else None
+    except Exception as e:  # never fatal: commands that need torch say so themselves
+        print(f"cli.py: warning: could not add the extension's dependency folder to sys.path ({e})", file=sys.stderr)
+        return None
 
 
 def _argv() -> list[str]:
     argv = sys.argv
     if "--" in argv:  # blender --background --python cli.py -- ARGS
         return argv[argv.index("--") + 1:]
-    if Path(argv[0]).name.startswith("blender") or (len(argv) > 1 and argv[1] in ("-b", "--background")):
-        return []
+    if in_blender_binary() or Path(argv[0]).name.startswith("blender"):
+        return []  # everything else on Blender's command line is Blender's own
     return argv[1:]
 
 
@@ -86,6 +100,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _fail(args, code: int, msg: str) -> int:
+    print(f"cli.py {args.command}: error: {msg}", file=sys.stderr)
+    if getattr(args, "json", False):
+        print(json.dumps({"ok": False, "error": msg}))
+    return code
+
+
 def main(argv: list[str] | None = None) -> int:
     _add_extension_deps_to_path()
     pkg = load_package()
@@ -95,17 +116,18 @@ def main(argv: list[str] | None = None) -> int:
     try:
         result = args.func(args) or {}
     except errors.UserError as e:
-        print(f"cli.py {args.command}: error: {e}", file=sys.stderr)
-        if getattr(args, "json", False):
-            print(json.dumps({"ok": False, "error": str(e)}))
-        return 2
+        return _fail(args, 2, str(e))
     except KeyboardInterrupt:
         print(f"cli.py {args.command}: interrupted; completed work is kept", file=sys.stderr)
         return 130
+    except Exception as e:  # a Blender binary would print this and exit 0: make it a failure in both ways
+        traceback.print_exc()
+        return _fail(args, 1, f"{type(e).__name__}: {e}")
     if getattr(args, "json", False):
         print(json.dumps({"ok": True, **result}, default=str, indent=1))
     return 0
 
 
 if __name__ == "__main__":
+    # In a Blender binary, SystemExit ends Blender with this status (argparse's own exits included).
     sys.exit(main())

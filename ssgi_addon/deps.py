@@ -9,35 +9,53 @@ from __future__ import annotations
 
 import importlib
 import os
+import shlex
 import subprocess
 import sys
 from pathlib import Path
 
 TORCH_REQUIREMENT = "torch==2.13.0"
 SITE_DIR_NAME = "site-packages"
+EXTENSION_ID = "ssgi"  # the manifest's id
 
 _status: tuple[bool, str] | None = None
 
 
-def deps_dir(create: bool = False) -> Path | None:
-    """The extension's private site-packages folder, or None when not running as an installed extension."""
+def extension_package() -> str | None:
+    """``bl_ext.<repo>.ssgi`` of this extension: itself when installed; when loaded from a checkout (the
+    command line in a Blender binary), an installed and enabled copy of it, if there is one."""
     from . import root_package
     pkg = root_package()
-    if not pkg.startswith("bl_ext."):
+    if pkg.startswith("bl_ext."):
+        return pkg
+    import bpy
+    for repo in bpy.context.preferences.extensions.repos:
+        if repo.enabled and repo.directory and (Path(repo.directory) / EXTENSION_ID / "blender_manifest.toml").is_file():
+            return f"bl_ext.{repo.module}.{EXTENSION_ID}"
+    return None
+
+
+def deps_dir(create: bool = False) -> Path | None:
+    """The extension's private site-packages folder, or None when there is no installed extension."""
+    pkg = extension_package()
+    if pkg is None:
         return None
     import bpy
     try:
-        return Path(bpy.utils.extension_path_user(pkg, path=SITE_DIR_NAME, create=create))
+        d = bpy.utils.extension_path_user(pkg, path=SITE_DIR_NAME, create=create)
     except Exception:
         return None
+    return Path(d) if d else None
 
 
 def add_to_path(path: Path | None = None) -> Path | None:
     """Put the private site-packages first on sys.path, if it exists. Returns it."""
     d = path if path is not None else deps_dir()
-    if d is not None and Path(d).is_dir() and str(d) not in sys.path:
+    if d is not None and Path(d).is_dir():
+        if str(d) in sys.path:
+            sys.path.remove(str(d))
         sys.path.insert(0, str(d))
-        importlib.invalidate_caches()
+        importlib.invalidate_caches()  # a folder already on sys.path may have new packages since
     return d
 
 
@@ -62,10 +80,22 @@ def missing_message(feature: str) -> str:
             f"and press 'Install Python dependencies'.")
 
 
-def pip_command(target: Path, requirement: str = TORCH_REQUIREMENT, python: str | None = None) -> list[str]:
-    """The pip command the installer runs (no network access happens here)."""
+def pip_command(target: Path, requirement: str = TORCH_REQUIREMENT, python: str | None = None,
+                extra_args: str | list[str] = ()) -> list[str]:
+    """The pip command the installer runs (no network access happens here). ``extra_args`` (a shell-style
+    string or a list) goes before the requirement, e.g. ``--index-url https://download.pytorch.org/whl/cpu``."""
+    if isinstance(extra_args, str):
+        try:
+            extra_args = shlex.split(extra_args)
+        except ValueError as e:
+            from ..model.errors import UserError
+            raise UserError(f"extra pip arguments {extra_args!r}: {e}") from None
+    reqs = shlex.split(requirement) if requirement.strip() else []
+    if not reqs:
+        from ..model.errors import UserError
+        raise UserError("the package to install is empty; the default is " + TORCH_REQUIREMENT)
     return [python or sys.executable, "-m", "pip", "install", "--disable-pip-version-check", "--no-input",
-            "--upgrade", "--target", str(target), requirement]
+            "--upgrade", "--target", str(target), *extra_args, *reqs]
 
 
 def run_pip(cmd: list[str], on_line=None, should_cancel=None) -> tuple[int, str]:

@@ -27,6 +27,14 @@ class SSGI_AddonPreferences(bpy.types.AddonPreferences):
         name="Torch threads", default=1, min=1, max=64,
         description="CPU threads for training and prediction inside Blender (1 keeps the UI and renders responsive)")
 
+    pip_requirement: bpy.props.StringProperty(
+        name="Package", default=deps.TORCH_REQUIREMENT,
+        description="What 'Install Python dependencies' asks pip for")
+    pip_extra_args: bpy.props.StringProperty(
+        name="Extra pip arguments", default="",
+        description="Added to the pip command, e.g. '--index-url https://download.pytorch.org/whl/cpu' for the "
+                    "smaller CPU-only torch build (PyPI's Linux torch is the CUDA build, about 3.5 GB)")
+
     def draw(self, context):
         layout = self.layout
         ok, info = deps.torch_status()
@@ -40,7 +48,11 @@ class SSGI_AddonPreferences(bpy.types.AddonPreferences):
             box.operator("ssgi.cancel_job", text="Cancel").job = "deps"
         else:
             if job and job.error:
-                box.label(text=f"Install failed: {job.state.get('message', '')[:100]}", icon="ERROR")
+                box.label(text=f"Install failed: {job.state.get('message', '')[:160]}", icon="ERROR")
+            elif job and job.result is not None:
+                box.label(text=job.state.get("message", "")[:100], icon="CHECKMARK")
+            box.prop(self, "pip_requirement")
+            box.prop(self, "pip_extra_args")
             row = box.row()
             row.enabled = bool(bpy.app.online_access)
             row.operator("ssgi.install_deps", icon="IMPORT")

@@ -59,6 +59,21 @@ def clean(stderr: str) -> str:
     return "\n".join(l for l in stderr.splitlines() if "EGL Error" not in l and "EGL_BAD" not in l)
 
 
+BLENDER_EXT = [sys.executable, str(ROOT / "scripts" / "blender_ext.py")]  # Blender's own extension tool
+
+
+@pytest.fixture(scope="session")
+def built_zip(tmp_path_factory) -> Path:
+    """The extension zip, built from the working tree by Blender's own ``blender_ext.py build``."""
+    out = tmp_path_factory.mktemp("dist") / "out"  # does not exist yet: the wrapper must create it
+    p = subprocess.run([*BLENDER_EXT, "build", "--source-dir", str(ROOT), "--output-dir", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stdout + p.stderr
+    zips = list(out.glob("*.zip"))
+    assert len(zips) == 1, (zips, p.stdout)
+    return zips[0]
+
+
 @pytest.fixture
 def factory_bpy():
     """The real bpy module, reset to factory settings."""

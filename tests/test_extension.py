@@ -12,21 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import ROOT, run_py
+from .conftest import BLENDER_EXT, ROOT, run_py
 
-TOOL = [sys.executable, str(ROOT / "scripts" / "blender_ext.py")]
+TOOL = BLENDER_EXT
 PKG = "bl_ext.user_default.ssgi"
-
-
-@pytest.fixture(scope="module")
-def built_zip(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("dist") / "out"  # does not exist yet: the wrapper must create it
-    p = subprocess.run([*TOOL, "build", "--source-dir", str(ROOT), "--output-dir", str(out)],
-                       capture_output=True, text=True, timeout=120)
-    assert p.returncode == 0, p.stdout + p.stderr
-    zips = list(out.glob("*.zip"))
-    assert len(zips) == 1, (zips, p.stdout)
-    return zips[0]
 
 
 def test_validate_accepts_manifest_and_rejects_a_broken_one(tmp_path):
