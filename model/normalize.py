@@ -1,0 +1,185 @@
+"""Network inputs from the channel spec: repair, normalise, augment (numpy and torch, bpy-free).
+
+Every rule here is written once and used by training, the baseline and prediction alike.
+
+Repair of non-finite values (``repair``), applied to every group before anything else:
+    NaN  -> 0             (no light, black albedo, zero normal, and "no geometry" for depth)
+    +Inf -> LIGHT_MAX     (65504, the largest half float) for light/colour/unit groups; depth: background
+    -Inf -> 0
+A pixel counts as *repaired* once if any of its channels in any group was non-finite; the count is returned.
+Negative light is clamped to 0 (light is >= 0); albedo and AO are clamped to [0, 1].
+
+Normalisation (``to_inputs``), per group kind (``channels.Group.kind``):
+    color  (albedo)          as is, in [0, 1]
+    normal (camera space)    as is, in [-1, 1]
+    unit   (ao)              as is, in [0, 1]
+    light  (direct, lit)     log1p(x): compressive, 0 -> 0, 1e5 -> 11.5
+    depth                    z / (z + m), m = median depth of the geometry pixels of THIS image: scale free
+                             (the same for z and 1000 z), in [0, 1); background -> 1.
+Geometry pixels for depth are those with a finite depth in (0, DEPTH_BACKGROUND) and, when the image's
+normal group is given, a normal of length > 0.5 (nothing-hit pixels have a zero normal). Pixels that are
+not geometry are background; an image without geometry is all background (1).
+
+Flip augmentation (``flip_x``) mirrors the image left-right and negates the normal's x component.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import channels as ch
+
+LIGHT_MAX = 65504.0
+DEPTH_BACKGROUND = 1e9  # depths at or above this (or non-finite, or <= 0) are "nothing hit"
+DESCRIPTION = {
+    "version": 1,
+    "repair": "NaN->0, +Inf->65504 (depth: background), -Inf->0; light clamped >=0, albedo/ao to [0,1]",
+    "light": "log1p(x)",
+    "depth": "z/(z+median geometry depth of the image); background (no geometry, z<=0, z>=1e9, non-finite) -> 1",
+    "color": "as is", "normal": "as is (camera space)", "unit": "as is",
+    "flip": "mirror x and negate normal.x",
+}
+
+
+def describe() -> dict:
+    """The normalisation, as plain data for checkpoints."""
+    return dict(DESCRIPTION)
+
+
+def _kind(name: str) -> str:
+    return ch.GROUPS[name].kind if name in ch.GROUPS else "light"  # derived groups (lit) are light
+
+
+def layout(spec: tuple[str, ...]) -> dict[str, slice]:
+    """Channel slices of each group in the network's input tensor for ``spec``."""
+    out, i = {}, 0
+    for g in spec:
+        n = ch.group_size(g)
+        out[g] = slice(i, i + n)
+        i += n
+    return out
+
+
+def repair(groups: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], int]:
+    """Replace non-finite values by the documented rule. Returns (repaired groups, repaired pixel count)."""
+    bad = None
+    out = {}
+    for name, a in groups.items():
+        a = np.asarray(a, dtype=np.float32)
+        if a.ndim == 2:
+            a = a[..., None]
+        kind = _kind(name)
+        finite = np.isfinite(a)
+        if not finite.all():
+            b = ~finite.all(axis=-1)
+            bad = b if bad is None else bad | b
+            hi = np.float32(np.inf if kind == "depth" else LIGHT_MAX)  # depth: inf becomes background later
+            a = np.where(np.isnan(a), np.float32(0.0), a)
+            a = np.where(a == np.inf, hi, a)
+            a = np.where(a == -np.inf, np.float32(0.0), a).astype(np.float32)
+        if kind == "light":
+            a = np.clip(a, 0.0, LIGHT_MAX)
+        elif kind in ("color", "unit"):
+            a = np.clip(a, 0.0, 1.0)
+        elif kind == "normal":
+            a = np.clip(a, -1.0, 1.0)
+        out[name] = a
+    return out, int(bad.sum()) if bad is not None else 0
+
+
+def geometry_mask(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
+    """HxW bool: pixels where something was hit (see module doc)."""
+    z = np.asarray(depth, dtype=np.float64)
+    if z.ndim == 3:
+        z = z[..., 0]
+    with np.errstate(invalid="ignore"):
+        m = np.isfinite(z) & (z > 0) & (z < DEPTH_BACKGROUND)
+    if normal is not None:
+        n = np.asarray(normal, dtype=np.float64)
+        with np.errstate(invalid="ignore", over="ignore"):
+            m &= np.nan_to_num((n * n).sum(axis=-1), nan=0.0, posinf=1.0) > 0.25
+    return m
+
+
+def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
+    """HxWx1 float32 in [0, 1]: z/(z+median), background 1. Scale free and finite for any input."""
+    z = np.asarray(depth, dtype=np.float64)
+    if z.ndim == 2:
+        z = z[..., None]
+    geo = geometry_mask(z, normal)
+    out = np.ones(z.shape[:2], dtype=np.float64)
+    if geo.any():
+        zg = z[..., 0][geo]
+        m = float(np.median(zg))
+        out[geo] = zg / (zg + m)
+    return out[..., None].astype(np.float32)
+
+
+def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
+    """A derived group from its (repaired) stored groups."""
+    if name == "lit":
+        return np.minimum(groups["albedo"] * groups["direct"], LIGHT_MAX).astype(np.float32)
+    raise KeyError(name)
+
+
+def missing_groups(spec: tuple[str, ...], groups) -> list[str]:
+    return [g for g in ch.required_groups(spec) if g not in groups]
+
+
+def to_inputs(groups: dict[str, np.ndarray], spec: tuple[str, ...]) -> tuple[np.ndarray, int]:
+    """The network input for ``spec`` as an HxWxC float32 array (C = channels.input_channels(spec)), finite
+    everywhere, and the number of repaired pixels. ``groups`` are raw HxWxC arrays as read from a sample."""
+    need = ch.required_groups(spec)
+    extra = ("normal",) if "depth" in spec and "normal" in groups and "normal" not in need else ()
+    rep, n_bad = repair({g: groups[g] for g in need + extra})
+    parts = []
+    for g in spec:
+        if g in ch.DERIVED:
+            a = derived(g, rep)
+        else:
+            a = rep[g]
+        kind = _kind(g)
+        if kind == "light":
+            a = np.log1p(a)
+        elif kind == "depth":
+            a = depth_normalise(a, rep.get("normal"))
+        parts.append(a.astype(np.float32))
+    x = np.concatenate(parts, axis=-1)
+    return np.ascontiguousarray(x), n_bad
+
+
+def light_forward(x):
+    """The compressive transform of light passes and of the loss space: log1p (numpy or torch)."""
+    if isinstance(x, np.ndarray):
+        return np.log1p(np.maximum(x, 0))
+    return x.clamp_min(0).log1p()
+
+
+def light_inverse(y):
+    """Inverse of ``light_forward``: expm1."""
+    if isinstance(y, np.ndarray):
+        return np.expm1(y)
+    return y.expm1()
+
+
+def target(groups: dict[str, np.ndarray]) -> np.ndarray:
+    """The training target: the reference as linear HDR RGB (HxWx3 float32); NOT repaired (callers check)."""
+    return np.asarray(groups[ch.TARGET_GROUP], dtype=np.float32)[..., :3]
+
+
+def flip_x(x, spec: tuple[str, ...], axis: int = -1):
+    """Mirror an input tensor left-right and negate normal.x. ``x`` is numpy HxWxC (axis=-1 channel last)
+    or torch NxCxHxW (pass axis=1 for channel axis). Width is the axis after H."""
+    lay = layout(spec)
+    if isinstance(x, np.ndarray):
+        assert axis == -1
+        y = x[:, ::-1].copy()
+        if "normal" in lay:
+            y[..., lay["normal"].start] *= -1
+        return y
+    import torch
+    y = torch.flip(x, dims=[-1])
+    if "normal" in lay:
+        i = lay["normal"].start
+        y = y.clone()
+        y[:, i] = -y[:, i]
+    return y
