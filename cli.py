@@ -30,7 +30,6 @@ PACKAGE = "ssgi"
 COMMAND_MODULES = [
     "ssgi_addon.info_cli",
     "model.train_cli",
-    "model.train_cli",
     "ssgi_addon.render_cli",
 ]
 
