@@ -61,7 +61,7 @@ def make(net, kind: str, history=None, best=None, dataset=None, command=None, tr
              state_dict=sd, history=list(history or []), best=dict(best or {}), dataset=dict(dataset or {}),
              command=command if command is not None else " ".join(sys.argv),
              created=datetime.datetime.now().isoformat(timespec="seconds"),
-             versions=dict(torch=torch.__version__, numpy=np.__version__, python=sys.version.split()[0]),
+             versions=dict(torch=str(torch.__version__), numpy=str(np.__version__), python=sys.version.split()[0]),
              params=network.count_params(net), receptive_field=int(net.receptive_field))
     if train_state is not None:
         d["train_state"] = train_state

@@ -1,0 +1,273 @@
+"""model/: normalisation, networks, metrics, checkpoints and the predictor (bpy-free, in process, fast)."""
+import math
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from ssgi.model import channels as ch
+from ssgi.model import checkpoint, metrics, network, normalize
+from ssgi.model.bench import synthetic_groups
+from ssgi.model.errors import UserError
+
+FAST = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+floats = st.floats(allow_nan=True, allow_infinity=True, width=32)
+
+
+def _net(variant, spec=ch.DEFAULT_INPUTS, seed=0, **kw):
+    torch.manual_seed(seed)
+    return network.build(network.arch_for(variant, spec, **kw)).eval()
+
+
+def _predictor(variant, **kw):
+    net = _net(variant, **kw)
+    return checkpoint.Predictor(net, checkpoint.make(net, "network", command="test"))
+
+
+# ---------------------------------------------------------------- normalisation
+
+@FAST
+@given(z=arrays(np.float32, (5, 7, 1), elements=st.floats(0.015625, 65536.0, width=32)),
+       scale=st.sampled_from([1e-3, 0.5, 7.0, 1e3]))
+def test_depth_normalisation_is_scale_free_and_in_unit_range(z, scale):
+    a = normalize.depth_normalise(z)
+    b = normalize.depth_normalise(z * np.float32(scale))
+    assert a.shape == (5, 7, 1) and np.isfinite(a).all()
+    assert (a >= 0).all() and (a < 1).all()
+    np.testing.assert_allclose(a, b, atol=1e-5)
+    # 35 pixels: the median is one of them and maps to exactly 1/2
+    assert np.min(np.abs(a - 0.5)) < 1e-6
+
+
+@FAST
+@given(z=arrays(np.float32, (4, 6, 1), elements=floats))
+def test_depth_normalisation_is_finite_for_any_depth_and_background_is_one(z):
+    a = normalize.depth_normalise(z)
+    assert np.isfinite(a).all() and (a >= 0).all() and (a <= 1).all()
+    bg = ~normalize.geometry_mask(z)
+    assert (a[bg] == 1).all()
+
+
+def test_depth_background_from_normals_and_far_clip():
+    z = np.array([[[2.0], [4.0], [100.0], [np.inf]]], np.float32)
+    n = np.array([[[0, 0, 1], [0, 0, 1], [0, 0, 0], [0, 0, 0]]], np.float32)
+    a = normalize.depth_normalise(z, n)[0, :, 0]
+    # geometry median = 3 -> 2/5, 4/7; no-hit pixels (zero normal) -> 1
+    np.testing.assert_allclose(a, [0.4, 4 / 7, 1, 1], rtol=1e-6)
+
+
+@FAST
+@given(data=st.data(), h=st.integers(1, 6), w=st.integers(1, 6))
+def test_inputs_finite_and_repaired_pixels_counted(data, h, w):
+    groups = {g: data.draw(arrays(np.float32, (h, w, ch.GROUPS[g].size), elements=floats))
+              for g in ("albedo", "normal", "depth", "direct")}
+    x, n = normalize.to_inputs(groups, ch.DEFAULT_INPUTS)
+    assert x.shape == (h, w, 13) and x.dtype == np.float32
+    assert np.isfinite(x).all()
+    bad = np.zeros((h, w), bool)
+    for a in groups.values():
+        bad |= ~np.isfinite(a).all(axis=-1)
+    assert n == int(bad.sum())
+
+
+def test_repair_rule_values():
+    direct = np.array([[[np.nan, np.inf, -np.inf]]], np.float32)
+    rep, n = normalize.repair({"direct": direct})
+    assert n == 1
+    np.testing.assert_array_equal(rep["direct"][0, 0], [0, normalize.LIGHT_MAX, 0])
+    x, _ = normalize.to_inputs({"albedo": np.ones((1, 1, 3), np.float32), "normal": np.zeros((1, 1, 3), np.float32),
+                                "depth": np.full((1, 1, 1), np.inf, np.float32), "direct": direct}, ch.DEFAULT_INPUTS)
+    lay = normalize.layout(ch.DEFAULT_INPUTS)
+    assert x[0, 0, lay["depth"]][0] == 1.0  # infinite depth is background
+    np.testing.assert_allclose(x[0, 0, lay["direct"]], np.log1p([0, normalize.LIGHT_MAX, 0]), rtol=1e-6)
+
+
+@FAST
+@given(x=arrays(np.float32, (3, 5, 13), elements=st.floats(-10, 10, width=32)))
+def test_flip_negates_normal_x_and_is_an_involution(x):
+    lay = normalize.layout(ch.DEFAULT_INPUTS)
+    f = normalize.flip_x(x, ch.DEFAULT_INPUTS)
+    nx = lay["normal"].start
+    np.testing.assert_array_equal(f[:, ::-1, nx], -x[:, :, nx])
+    others = [i for i in range(13) if i != nx]
+    np.testing.assert_array_equal(f[:, ::-1][..., others], x[..., others])
+    np.testing.assert_array_equal(normalize.flip_x(f, ch.DEFAULT_INPUTS), x)
+    t = normalize.flip_x(torch.from_numpy(x).permute(2, 0, 1)[None], ch.DEFAULT_INPUTS, axis=1)
+    np.testing.assert_array_equal(t[0].permute(1, 2, 0).numpy(), f)
+
+
+@FAST
+@given(x=arrays(np.float64, (4, 3), elements=st.floats(0, 1e6)))
+def test_light_transform_and_tonemap_invert(x):
+    np.testing.assert_allclose(normalize.light_inverse(normalize.light_forward(x)), x, rtol=1e-9, atol=1e-9)
+    y = metrics.tonemap(x)
+    assert ((y >= 0) & (y < 1)).all()
+    np.testing.assert_allclose(metrics.inverse_tonemap(y), x, rtol=1e-6, atol=1e-9)
+
+
+# ---------------------------------------------------------------- metrics
+
+def test_psnr_known_values_clamp_and_pooling():
+    ref = np.full((4, 5, 3), 0.5)
+    assert metrics.psnr(ref + 0.1, ref) == pytest.approx(20.0)
+    assert metrics.psnr(ref, ref) == math.inf
+    assert metrics.psnr(np.full((2, 2, 3), 5.0), np.full((2, 2, 3), 1.0)) == math.inf  # both clamp to 1
+    p = metrics.PooledPSNR()
+    p.add(ref + 0.1, ref)  # MSE 1e-2
+    p.add(ref + 0.01, ref)  # MSE 1e-4
+    assert p.value == pytest.approx(10 * math.log10(1 / 0.00505))  # pooled MSE, not mean of PSNRs
+    # tonemap: 1 -> 0.5 and 3 -> 0.75: MSE 0.0625
+    assert metrics.tm_psnr(np.ones((2, 2, 3)), np.full((2, 2, 3), 3.0)) == pytest.approx(10 * math.log10(1 / 0.0625))
+
+
+def test_ssim_identical_is_one_and_noise_lowers_it():
+    rng = np.random.default_rng(0)
+    a = rng.uniform(0, 1, (20, 30, 3))
+    assert metrics.ssim(a, a) == pytest.approx(1.0)
+    assert metrics.ssim(np.clip(a + rng.normal(0, 0.2, a.shape), 0, 1), a) < 0.9
+    assert metrics.ssim(a[:2, :2], a[:2, :2]) == 1.0  # too small for a window: still defined
+
+
+# ---------------------------------------------------------------- networks
+
+def test_fssgi_has_238339_parameters_with_13_inputs_and_is_configurable():
+    assert ch.input_channels(ch.DEFAULT_INPUTS) == 13
+    assert network.count_params(_net("fssgi")) == 238_339
+    # width 32, 2 + 2 layers, 10 inputs: 10*9*32+32 + 32*9*32+32 + (42*9*32+32) + (32*9*32+32) + 32*9*3+3
+    n = network.count_params(_net("fssgi", spec=("albedo", "normal", "depth", "direct"), width=32, pre=2, post=2))
+    assert n == (2880 + 32) + (9216 + 32) + (12096 + 32) + (9216 + 32) + (864 + 3)
+    assert network.count_params(_net("unet_s")) < network.count_params(_net("unet")) < network.count_params(_net("unet_l"))
+
+
+@pytest.mark.parametrize("variant", ["fssgi", "lean", "unet_s", "unet"])
+def test_receptive_field_bounds_the_gradient(variant):
+    """The claimed receptive field covers every input pixel that matters, and the tile overlap covers the
+    farthest one on either side (stride-2 layers make the field lopsided), at every alignment."""
+    net = _net(variant)
+    size = 2 * net.receptive_field + 33
+    for c in range(size // 2, size // 2 + 4):
+        x = torch.rand(1, 13, size, size, requires_grad=True)
+        net(x)[0, :, c, c].sum().backward()
+        ys, xs = torch.nonzero(x.grad.abs().sum(dim=(0, 1)) > 0, as_tuple=True)
+        for v in (ys, xs):
+            lo, hi = int(v.min()) - c, int(v.max()) - c
+            assert hi - lo + 1 <= net.receptive_field
+            assert max(-lo, hi) <= network.overlap_for(net)
+    assert hi - lo + 1 >= net.receptive_field - 3  # and it is not a loose overestimate
+
+
+def test_residual_head_starts_from_direct_light_and_demodulates():
+    net = _net("unet_s")
+    with torch.no_grad():
+        for p in net.out.parameters():
+            p.zero_()  # o = 0: the prediction is the direct-lit image albedo * direct
+    g = synthetic_groups(20, 12)
+    x, _ = normalize.to_inputs(g, ch.DEFAULT_INPUTS)
+    with torch.no_grad():
+        lin = network.to_linear(net(torch.from_numpy(x).permute(2, 0, 1)[None]))[0].permute(1, 2, 0).numpy()
+    np.testing.assert_allclose(lin, g["albedo"] * g["direct"], rtol=2e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("variant", ["fssgi", "unet"])
+def test_tiled_equals_untiled(variant):
+    net = _net(variant)
+    x = torch.from_numpy(normalize.to_inputs(synthetic_groups(83, 61, seed=3), ch.DEFAULT_INPUTS)[0]).permute(2, 0, 1)[None]
+    with torch.inference_mode():
+        full = net(x)
+        tiled = checkpoint.tiled_forward(net, x, tile=16)
+    assert tiled.shape == full.shape
+    torch.testing.assert_close(tiled, full, rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("hw", [(1, 1), (3, 2), (2, 3), (37, 5), (5, 61)])
+def test_predictor_any_size_finite(hw):
+    pred = _predictor("unet")
+    g = synthetic_groups(hw[1], hw[0])
+    out = pred.predict(g)
+    assert out.shape == (hw[0], hw[1], 3) and out.dtype == np.float32
+    assert np.isfinite(out).all() and (out >= 0).all()
+    np.testing.assert_allclose(pred.predict(g, tile=2), out, rtol=1e-4, atol=1e-6)
+
+
+def test_predictor_nan_inf_extreme_hdr_and_black():
+    pred = _predictor("unet")
+    g = synthetic_groups(40, 24)
+    g["direct"][3, 4] = np.nan
+    g["depth"][5, 6] = np.inf
+    g["normal"][7, 8, 0] = -np.inf
+    out = pred.predict(g)
+    assert np.isfinite(out).all() and pred.last_repaired == 3
+    g = synthetic_groups(40, 24)
+    g["direct"] *= np.float32(1e5)
+    out = pred.predict(g)
+    assert np.isfinite(out).all()
+    assert out.max() <= checkpoint.OUTPUT_BOUND * g["direct"].max()
+    black = {k: np.zeros_like(v) for k, v in g.items()}
+    assert np.abs(pred.predict(black)).max() == 0.0  # residual head: zero albedo -> zero light
+
+
+# ---------------------------------------------------------------- checkpoints
+
+def test_checkpoint_roundtrip_and_errors(tmp_path):
+    net = _net("unet_s")
+    p = tmp_path / "m.pt"
+    checkpoint.save(p, checkpoint.make(net, "network", command="test"))
+    pred = checkpoint.load_predictor(p)
+    g = synthetic_groups(33, 17)
+    ref = checkpoint.Predictor(net, checkpoint.make(net, "network")).predict(g)
+    np.testing.assert_array_equal(pred.predict(g), ref)
+    assert pred.spec == ch.DEFAULT_INPUTS
+
+    # a group missing from the input: the message names it
+    with pytest.raises(UserError, match=r"direct"):
+        pred.predict({k: v for k, v in g.items() if k != "direct"})
+    # not a checkpoint
+    txt = tmp_path / "notes.txt"
+    txt.write_text("hello")
+    with pytest.raises(UserError, match=r"notes\.txt: not an SSGI model checkpoint"):
+        checkpoint.load_predictor(txt)
+    plain = tmp_path / "plain.pt"
+    torch.save(net.state_dict(), plain)
+    with pytest.raises(UserError, match=r"plain\.pt: not an SSGI"):
+        checkpoint.load_predictor(plain)
+    # another architecture: weights of unet_s under unet's arch
+    d = checkpoint.load(p)
+    d["arch"] = network.arch_for("unet")
+    other = tmp_path / "other.pt"
+    torch.save(d, other)
+    with pytest.raises(UserError, match=r"other\.pt: weights do not match architecture 'unet'"):
+        checkpoint.load_predictor(other)
+    d["arch"] = dict(d["arch"], backbone="transformer")
+    torch.save(d, other)
+    with pytest.raises(UserError, match=r"other\.pt: unsupported architecture"):
+        checkpoint.load_predictor(other)
+
+
+def test_save_refuses_nan_weights_and_keeps_previous(tmp_path):
+    net = _net("unet_s")
+    p = tmp_path / "m.pt"
+    checkpoint.save(p, checkpoint.make(net, "network"))
+    before = p.read_bytes()
+    with torch.no_grad():
+        net.out.weight[0, 0, 0, 0] = float("nan")
+    with pytest.raises(UserError, match="non-finite"):
+        checkpoint.save(p, checkpoint.make(net, "network"))
+    assert p.read_bytes() == before
+    assert [f.name for f in tmp_path.iterdir()] == ["m.pt"]  # no temporary left
+
+
+def test_bf16_path_agrees_with_fp32():
+    """Reduced precision (bfloat16 convolutions) agrees with float32 on HDR inputs: PSNR >= 40 dB after the
+    tonemap, and stays finite for lights of 1e5."""
+    net = _net("unet")
+    ck = checkpoint.make(net, "network")
+    g = synthetic_groups(64, 40)
+    g["direct"] *= np.float32(50)
+    a = checkpoint.Predictor(net, ck).predict(g)
+    b = checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)
+    assert metrics.tm_psnr(b, a) >= 40
+    g["direct"] *= np.float32(2000)
+    assert np.isfinite(checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)).all()
