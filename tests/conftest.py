@@ -74,6 +74,27 @@ def built_zip(tmp_path_factory) -> Path:
     return zips[0]
 
 
+# Makes `import torch` fail in every Python started with this folder on PYTHONPATH (sitecustomize runs at
+# start-up), as in a Blender whose Python has no torch. bpy itself stays real.
+_NO_TORCH = '''
+import sys
+class _NoTorch:
+    def find_spec(self, name, path=None, target=None):
+        if name == "torch" or name.startswith("torch."):
+            raise ImportError(f"No module named {name!r} (hidden by the SSGI test)")
+        return None
+sys.meta_path.insert(0, _NoTorch())
+'''
+
+
+@pytest.fixture(scope="session")
+def no_torch_env(tmp_path_factory) -> dict:
+    """``env=`` for run_py/run_cli: a subprocess in which ``import torch`` raises ImportError."""
+    d = tmp_path_factory.mktemp("no_torch")
+    (d / "sitecustomize.py").write_text(_NO_TORCH)
+    return {"PYTHONPATH": str(d)}
+
+
 @pytest.fixture
 def factory_bpy():
     """The real bpy module, reset to factory settings."""

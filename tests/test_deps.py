@@ -13,29 +13,10 @@ import pytest
 
 from .conftest import run_cli, run_py
 
-# Makes `import torch` fail in every Python started with this folder on PYTHONPATH (sitecustomize runs at
-# start-up), as in a Blender whose Python has no torch. bpy itself is real.
-_NO_TORCH = '''
-import sys
-class _NoTorch:
-    def find_spec(self, name, path=None, target=None):
-        if name == "torch" or name.startswith("torch."):
-            raise ImportError(f"No module named {name!r} (hidden by the SSGI test)")
-        return None
-sys.meta_path.insert(0, _NoTorch())
-'''
-
 # modules that randomizing and baking use; they must import without torch (those not written yet are skipped
 # inside the subprocess and listed in its report)
 BAKE_SIDE_MODULES = ("model.errors", "model.channels", "model.exrio", "model.cliargs", "ssgi_addon.room",
                      "ssgi_addon.passes", "ssgi_addon.bake", "ssgi_addon.randomize", "ssgi_addon.info_cli")
-
-
-@pytest.fixture(scope="module")
-def no_torch_env(tmp_path_factory) -> dict:
-    d = tmp_path_factory.mktemp("no_torch")
-    (d / "sitecustomize.py").write_text(_NO_TORCH)
-    return {"PYTHONPATH": str(d)}
 
 
 def make_wheel(folder: Path, name: str = "ssgi_probe_pkg", version: str = "1.0") -> Path:
