@@ -1,7 +1,7 @@
 """The command line: both entry styles parse, every subcommand has --help, bad arguments name the argument."""
 import json
 
-from .conftest import run_cli
+from .conftest import run_cli, run_py
 
 
 def test_info_json_reports_versions():
@@ -41,3 +41,35 @@ def test_blender_binary_style_argv():
         assert cli._argv() == ["info", "--json"]
     finally:
         sys.argv = old
+
+
+def test_argv_forms():
+    import sys
+
+    import cli
+    old = sys.argv
+    try:
+        for argv, want in ((["cli.py", "info", "--json"], ["info", "--json"]),
+                           (["blender", "-b", "--python", "cli.py"], []),  # no `--`: Blender's own args only
+                           (["/opt/blender/blender", "--background", "x.blend", "--python", "cli.py", "--", "demo", "--help"],
+                            ["demo", "--help"])):
+            sys.argv = argv
+            assert cli._argv() == want, argv
+    finally:
+        sys.argv = old
+
+
+def test_bpy_module_is_not_a_blender_binary():
+    p = run_py("import bpy\nprint('binary' if cli.in_blender_binary() else 'module', bpy.app.module)")
+    assert p.stdout.split()[-2:] == ["module", "True"]
+
+
+def test_no_subcommand_exits_2_and_names_it():
+    p = run_cli(check=False)
+    assert p.returncode == 2 and "SUBCOMMAND" in p.stderr
+
+
+def test_help_lists_the_foundation_subcommands():
+    p = run_cli("--help")
+    for name in ("info", "demo"):
+        assert name in p.stdout
