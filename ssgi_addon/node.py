@@ -154,14 +154,22 @@ def resolve_model(scene, override: str | None = None) -> Path:
 
 # --- the prediction image -----------------------------------------------------------------------------
 
+def _resize(img, w: int, h: int) -> None:
+    """Resize through the generated size (not ``scale``): a reopened file regenerates the placeholder at the
+    generated size, which must cover the whole frame."""
+    if (img.generated_width, img.generated_height) != (w, h):
+        img.generated_width, img.generated_height = w, h
+    if tuple(img.size) != (w, h):
+        img.scale(w, h)
+
+
 def set_prediction(rgb, scene, frame: int, model: str):
     """Put a HxWx3 linear prediction (top row first) into the image and stamp what it is."""
     import numpy as np
 
     h, w = rgb.shape[:2]
     img = ensure_image(w, h)
-    if tuple(img.size) != (w, h):
-        img.scale(w, h)
+    _resize(img, w, h)
     rgba = np.ones((h, w, 4), dtype=np.float32)
     rgba[..., :3] = rgb
     img.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())
@@ -178,8 +186,8 @@ def set_placeholder(width: int | None = None, height: int | None = None):
     import numpy as np
 
     img = ensure_image(width or 16, height or 16)
-    if width and height and tuple(img.size) != (width, height):
-        img.scale(width, height)
+    if width and height:
+        _resize(img, width, height)
     n = img.size[0] * img.size[1]
     img.pixels.foreach_set(np.tile(np.asarray(PLACEHOLDER, np.float32), n))
     img.update()

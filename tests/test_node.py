@@ -1,0 +1,363 @@
+"""The SSGI compositor node and render path, on real bpy + EEVEE at 64x36, 1 sample, in subprocesses.
+
+One module fixture builds a small room (.blend, SSGI set up by the operator, a random checkpoint); another
+renders it once through the SSGI path in a subprocess and keeps the passes of that very render, so the
+tests below can check the written frames against ``predict()`` computed here, independently.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from .conftest import clean, run_cli, run_py
+
+W, H = 64, 36
+
+# A room: floor, a low back wall (sky visible above it), a red cube, a sphere, a point light, a camera that
+# moves along x over frames 1..3, a blue world. Output: 32-bit RGBA OpenEXR.
+SCENE = '''
+import bpy, math
+def build_room(out_pattern):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.engine = "BLENDER_EEVEE"
+    sc.eevee.taa_render_samples = 1
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 64, 36, 100
+    bpy.ops.mesh.primitive_plane_add(size=6, location=(0, 0, 0))
+    bpy.ops.mesh.primitive_plane_add(size=3, location=(0, 3, 1.5), rotation=(math.pi / 2, 0, 0))
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(-0.8, 0.5, 0.5))
+    m = bpy.data.materials.new("red")
+    m.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.8, 0.1, 0.1, 1)
+    bpy.context.object.data.materials.append(m)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0.9, 0.2, 0.5))
+    bpy.ops.object.light_add(type="POINT", location=(0.5, -1.0, 2.5))
+    bpy.context.object.data.energy = 300
+    bpy.ops.object.camera_add(location=(0, -5, 1.6), rotation=(math.radians(90), 0, 0))
+    cam = bpy.context.object
+    sc.camera = cam
+    for f, x in ((1, -0.4), (2, 0.0), (3, 0.4)):
+        cam.location.x = x
+        cam.keyframe_insert("location", frame=f)
+    sc.frame_start, sc.frame_end = 1, 3
+    sc.frame_set(2)
+    world = bpy.data.worlds.new("World")
+    sc.world = world
+    world.color = (0.05, 0.1, 0.3)
+    bg = world.node_tree.nodes.get("Background") if world.node_tree else None
+    if bg is not None:
+        bg.inputs[0].default_value = (0.05, 0.1, 0.3, 1)
+    ims = sc.render.image_settings
+    ims.file_format = "OPEN_EXR"
+    ims.color_depth = "32"
+    ims.color_mode = "RGBA"
+    sc.render.filepath = out_pattern
+    return sc
+'''
+
+SNAPSHOT = '''
+def settings_snapshot(sc):
+    """Plain settings that the SSGI path changes while it renders, and the compositor's links."""
+    def plain(s):
+        out = {}
+        for p in s.bl_rna.properties:
+            if p.identifier == "rna_type" or p.type not in ("BOOLEAN", "INT", "FLOAT", "STRING", "ENUM"):
+                continue
+            v = getattr(s, p.identifier)
+            out[p.identifier] = list(v) if hasattr(v, "__len__") and not isinstance(v, str) else (sorted(v) if isinstance(v, set) else v)
+        return out
+    lights = {o.name: plain(o.data) for o in sc.objects if o.type == "LIGHT"}
+    tree = sc.compositing_node_group
+    return {"eevee": plain(sc.eevee), "render": plain(sc.render), "image_settings": plain(sc.render.image_settings),
+            "view_layer": plain(sc.view_layers[0]), "lights": lights, "world": sc.world.name if sc.world else None,
+            "frame": sc.frame_current, "nodes": sorted((n.name, n.bl_idname, n.mute, n.label) for n in tree.nodes),
+            "links": sorted((l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
+                            for l in tree.links)}
+'''
+
+
+def read_rgba(path) -> np.ndarray:
+    import OpenEXR
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        ch = f.parts[0].channels
+        return np.stack([np.asarray(ch[c].pixels, dtype=np.float32) for c in "RGBA"], -1)
+
+
+def make_checkpoint(path: Path, variant: str = "unet_s", inputs=None) -> Path:
+    """A small randomly initialised checkpoint, through model/checkpoint.py's save API."""
+    import torch
+
+    from ssgi.model import channels as ch
+    from ssgi.model import checkpoint, network
+    torch.manual_seed(0)
+    net = network.build(network.arch_for(variant, inputs=inputs or ch.DEFAULT_INPUTS))
+    ck = checkpoint.make(net, "network", command="tests/test_node.py")
+    ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}  # plain strings load with weights_only
+    checkpoint.save(path, ck)
+    return path
+
+
+def expected_image(model: Path, groups: dict, clip_end: float) -> np.ndarray:
+    """What the node must show, computed here: predict() on the passes, EEVEE's colour where no geometry."""
+    from ssgi.model import checkpoint
+    pred = checkpoint.load_predictor(model).predict(groups)
+    world = groups["depth"][..., 0] >= 0.999 * clip_end
+    return np.where(world[..., None], groups["eevee"][..., :3], pred), world
+
+
+@pytest.fixture(scope="module")
+def room(tmp_path_factory):
+    d = tmp_path_factory.mktemp("node")
+    model = make_checkpoint(d / "model.pt")
+    blend = d / "room.blend"
+    run_py(SCENE + f'''
+import ssgi
+ssgi.register()
+sc = build_room({str(d / "out" / "f_####")!r})
+assert bpy.ops.ssgi.setup(model={str(model)!r}) == {{"FINISHED"}}
+bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
+''', timeout=300)
+    return {"dir": d, "model": model, "blend": blend}
+
+
+@pytest.fixture(scope="module")
+def rendered(room):
+    """One subprocess: SSGI render of frame 2 (passes kept), a plain render, Invert + a pass mix after SSGI
+    rendered again, bpy.ops.ssgi.render, and the .blend saved after all that."""
+    d = room["dir"]
+    res = d / "rendered.json"
+    p = run_py(SCENE + SNAPSHOT + f'''
+import json, numpy as np, ssgi
+from ssgi.ssgi_addon import render as R
+ssgi.register()
+bpy.ops.wm.open_mainfile(filepath={str(room["blend"])!r})
+sc = bpy.context.scene
+out = {{}}
+before = settings_snapshot(sc)
+s = R.RenderSession(sc, [2], keep_groups=True)
+s.run()
+out["after_equal"] = settings_snapshot(sc) == before
+out["diff"] = {{k: (before[k], settings_snapshot(sc)[k]) for k in before if before[k] != settings_snapshot(sc)[k]}}
+info = s.results[0]
+out["plain_ssgi"] = info["path"]
+np.savez({str(d / "g1.npz")!r}, **info["groups"])
+out["clip_end"] = sc.camera.data.clip_end
+# a plain render: must not show the prediction just made
+sc.render.filepath = {str(d / "plain")!r}
+bpy.ops.render.render(write_still=True)
+img = bpy.data.images["SSGI Prediction"]
+out["after_plain_state"] = img.get("ssgi_state")
+sc.render.filepath = {str(d / "out" / "f_####")!r}
+# the artist's nodes after SSGI: Invert, then add Render Layers' Diffuse Color
+tree = sc.compositing_node_group
+ssgi_node = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup")
+rl = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers")
+gout = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
+inv = tree.nodes.new("CompositorNodeInvert")
+mix = tree.nodes.new("ShaderNodeMix"); mix.data_type = "RGBA"; mix.blend_type = "ADD"
+mix.inputs["Factor"].default_value = 1.0
+tree.links.new(ssgi_node.outputs[0], inv.inputs["Color"])
+tree.links.new(inv.outputs[0], mix.inputs[6])
+tree.links.new(rl.outputs["Diffuse Color"], mix.inputs[7])
+tree.links.new(mix.outputs[2], gout.inputs[0])
+s2 = R.RenderSession(sc, [2], out={str(d / "inverted")!r}, keep_groups=True)
+s2.run()
+out["inverted"] = s2.results[0]["path"]
+np.savez({str(d / "g2.npz")!r}, **s2.results[0]["groups"])
+out["op"] = sorted(bpy.ops.ssgi.render(write_still=True, filepath={str(d / "op_####")!r}))
+out["op_file"] = {str(d / "op_0002.exr")!r}
+bpy.ops.wm.save_as_mainfile(filepath={str(d / "rendered.blend")!r})
+json.dump(out, open({str(res)!r}, "w"), default=str)
+''', timeout=600)
+    r = json.loads(res.read_text())
+    r["stderr"] = clean(p.stderr)
+    r["g1"] = dict(np.load(d / "g1.npz"))
+    r["g2"] = dict(np.load(d / "g2.npz"))
+    return r
+
+
+def test_composite_output_equals_prediction_of_the_same_render(room, rendered):
+    got = read_rgba(rendered["plain_ssgi"])
+    assert got.shape == (H, W, 4)
+    exp, world = expected_image(room["model"], rendered["g1"], rendered["clip_end"])
+    assert 0 < world.sum() < world.size * 0.6, "the test scene must show both sky and geometry"
+    np.testing.assert_allclose(got[..., :3], exp, rtol=1e-5, atol=1e-6)
+    assert np.all(got[..., 3] == 1.0)
+    # the node shows the prediction, not EEVEE's own image, on geometry
+    eevee = rendered["g1"]["eevee"][..., :3]
+    assert np.abs(got[..., :3] - eevee)[~world].mean() > 1e-3
+    assert Path(rendered["plain_ssgi"]).name == "f_0002.exr"
+
+
+def test_scene_settings_and_tree_are_put_back_after_an_ssgi_render(rendered):
+    assert rendered["after_equal"], rendered["diff"]
+
+
+def test_plain_render_shows_placeholder_not_the_stale_prediction(rendered):
+    plain = read_rgba(Path(rendered["plain_ssgi"]).parent.parent / "plain.exr")
+    np.testing.assert_array_equal(plain[..., :3], np.broadcast_to(np.float32([1, 0, 1]), plain[..., :3].shape))
+    assert rendered["after_plain_state"] == "placeholder"
+    assert "placeholder, not a prediction" in rendered["stderr"]
+
+
+def test_nodes_after_ssgi_apply_invert_and_pass_mix(room, rendered):
+    got = read_rgba(rendered["inverted"])
+    g = rendered["g2"]
+    exp, _ = expected_image(room["model"], g, rendered["clip_end"])
+    # Invert, then + Render Layers' Diffuse Color (fed by the stand-in of the same render)
+    np.testing.assert_allclose(got[..., :3], (1.0 - exp) + g["albedo"], rtol=1e-5, atol=1e-5)
+    assert Path(rendered["inverted"]).name == "inverted.exr"
+
+
+def test_operator_renders_and_writes_where_asked(rendered):
+    assert rendered["op"] == ["FINISHED"]
+    op = read_rgba(rendered["op_file"])
+    inv = read_rgba(rendered["inverted"])
+    # same frame, same tree, a second EEVEE render: the same image
+    np.testing.assert_allclose(op, inv, atol=1e-4)
+
+
+def test_blend_reopens_and_renders_without_the_extension(room, rendered):
+    """The saved file on a Blender where the extension is not enabled: the SSGI node is a plain group, the
+    render does not crash, and it shows the placeholder (pixels of the prediction are not saved)."""
+    d = room["dir"]
+    res = d / "noext.json"
+    run_py(f'''
+import bpy, json, numpy as np, addon_utils
+assert not any(m.__name__.endswith("ssgi") for m in addon_utils.modules() if addon_utils.check(m.__name__)[1])
+assert not hasattr(bpy.types, "SSGI_OT_render")
+bpy.ops.wm.open_mainfile(filepath={str(d / "rendered.blend")!r})
+sc = bpy.context.scene
+n = next(n for n in sc.compositing_node_group.nodes if n.name == "SSGI")
+img = bpy.data.images["SSGI Prediction"]
+px = np.empty(len(img.pixels), np.float32); img.pixels.foreach_get(px)
+sc.render.filepath = {str(d / "noext")!r}
+bpy.ops.render.render(write_still=True)
+json.dump({{"type": n.bl_idname, "tree": n.node_tree.name, "model": n.get("ssgi_model"),
+           "pixels": np.unique(px.reshape(-1, 4), axis=0).tolist()}}, open({str(res)!r}, "w"))
+''', timeout=300)
+    r = json.loads(res.read_text())
+    assert r["type"] == "CompositorNodeGroup" and r["tree"] == ".SSGI"
+    assert r["model"] == str(room["model"])
+    assert r["pixels"] == [[1.0, 0.0, 1.0, 1.0]]
+    out = read_rgba(d / "noext.exr")
+    assert np.isfinite(out).all()
+    # Invert(magenta) + albedo: green plus albedo, never the old prediction
+    assert np.all(out[..., 1] >= 1.0 - 1e-4)
+
+
+def test_cli_renders_three_frames_each_its_own_prediction(room, tmp_path):
+    p = run_cli("render", "--blend", str(room["blend"]), "--out", str(tmp_path / "anim_####"), "--frames", "1-3",
+                "--save-passes", str(tmp_path / "passes"), "--json", timeout=600)
+    summary = json.loads(p.stdout)
+    files = [tmp_path / f"anim_{f:04d}.exr" for f in (1, 2, 3)]
+    assert summary["files"] == [str(f) for f in files]
+    assert sorted(x.name for x in tmp_path.iterdir() if x.is_file()) == [f.name for f in files]
+    from ssgi.model import exrio
+    outs = []
+    for f, path in zip((1, 2, 3), files):
+        g = exrio.read_sample(tmp_path / "passes" / f"{f:06d}.exr", groups=("albedo", "normal", "depth", "direct", "eevee"))
+        exp, _ = expected_image(room["model"], g, 100.0)
+        got = read_rgba(path)
+        np.testing.assert_allclose(got[..., :3], exp, rtol=1e-5, atol=1e-6, err_msg=f"frame {f}")
+        outs.append(got)
+    # the camera moves: each frame is its own
+    assert np.abs(outs[0] - outs[1]).mean() > 1e-3 and np.abs(outs[1] - outs[2]).mean() > 1e-3
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_unknown_model_or_missing_passes_error_and_leave_scene_unchanged(room, tmp_path):
+    blend = room["blend"]
+    sha = _sha(blend)
+    bad = tmp_path / "garbage.pt"
+    bad.write_bytes(b"not a checkpoint")
+    # command line: a clear message naming the file, exit 2, nothing written
+    for model, words in ((tmp_path / "nope.pt", "no such model file"), (bad, "not an SSGI model checkpoint")):
+        p = run_cli("render", "--blend", str(blend), "--out", str(tmp_path / "o_####"), "--model", str(model),
+                    check=False, timeout=300)
+        assert p.returncode == 2, clean(p.stderr)
+        assert str(model) in p.stderr and words in p.stderr
+        assert "Traceback" not in p.stderr
+    assert not list(tmp_path.glob("o_*")) and _sha(blend) == sha
+    # in Blender: operators report the error and change nothing (settings, passes, tree)
+    res = tmp_path / "err.json"
+    run_py(SCENE + SNAPSHOT + f'''
+import json, ssgi
+ssgi.register()
+bpy.ops.wm.open_mainfile(filepath={str(blend)!r})
+sc = bpy.context.scene
+out = {{}}
+before = settings_snapshot(sc)
+for name, call in (("render_missing", lambda: bpy.ops.ssgi.render(model={str(tmp_path / "nope.pt")!r})),
+                   ("setup_missing", lambda: bpy.ops.ssgi.setup(model={str(tmp_path / "nope.pt")!r}))):
+    try:
+        call(); out[name] = "no error"
+    except RuntimeError as e:
+        out[name] = str(e)
+    out[name + "_unchanged"] = settings_snapshot(sc) == before
+sc.view_layers[0].use_pass_diffuse_direct = False
+before = settings_snapshot(sc)
+try:
+    bpy.ops.ssgi.render(); out["pass"] = "no error"
+except RuntimeError as e:
+    out["pass"] = str(e)
+out["pass_unchanged"] = settings_snapshot(sc) == before
+json.dump(out, open({str(res)!r}, "w"))
+''', timeout=300)
+    r = json.loads(res.read_text())
+    for k in ("render_missing", "setup_missing"):
+        assert "nope.pt" in r[k] and "no such model file" in r[k], r[k]
+        assert r[k + "_unchanged"], k
+    assert "Diffuse Direct (use_pass_diffuse_direct)" in r["pass"] and "Set up SSGI" in r["pass"], r["pass"]
+    assert r["pass_unchanged"]
+
+
+def test_setup_inserts_ssgi_keeping_the_artists_nodes(room, tmp_path):
+    """Render Layers -> Glare -> Color Balance -> output becomes Render Layers -> SSGI -> Glare -> ...; passes
+    on; a second Set up changes nothing; the Add menu and the render menu carry SSGI entries."""
+    res = tmp_path / "setup.json"
+    run_py(f'''
+import bpy, json, ssgi
+bpy.ops.wm.read_factory_settings(use_empty=True)
+ssgi.register()
+sc = bpy.context.scene
+tree = bpy.data.node_groups.new("Artist", "CompositorNodeTree")
+sc.compositing_node_group = tree
+tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+rl = tree.nodes.new("CompositorNodeRLayers")
+glare = tree.nodes.new("CompositorNodeGlare")
+cb = tree.nodes.new("CompositorNodeColorBalance")
+go = tree.nodes.new("NodeGroupOutput")
+tree.links.new(rl.outputs["Image"], glare.inputs["Image"])
+tree.links.new(glare.outputs["Image"], cb.inputs["Image"])
+tree.links.new(cb.outputs["Image"], go.inputs[0])
+bpy.ops.ssgi.setup(model={str(room["model"])!r})
+links1 = sorted((l.from_node.name, l.to_node.name) for l in tree.links)
+bpy.ops.ssgi.setup(model={str(room["model"])!r})
+links2 = sorted((l.from_node.name, l.to_node.name) for l in tree.links)
+vl = sc.view_layers[0]
+from ssgi.ops import node_ops
+json.dump({{"links1": links1, "links2": links2, "n": len(tree.nodes),
+           "passes": [vl.use_pass_diffuse_color, vl.use_pass_normal, vl.use_pass_z, vl.use_pass_diffuse_direct],
+           "ao": vl.use_pass_ambient_occlusion,
+           "add_menu": node_ops.draw_add_menu in bpy.types.NODE_MT_compositor_node_add_all._dyn_ui_initialize(),
+           "render_menu": node_ops.draw_render_menu in bpy.types.TOPBAR_MT_render._dyn_ui_initialize(),
+           "handler": node_ops.ssgi_render.on_render_pre in bpy.app.handlers.render_pre}}, open({str(res)!r}, "w"))
+ssgi.unregister()
+assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_model")
+assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
+''', timeout=300)
+    r = json.loads(res.read_text())
+    want = sorted([["Render Layers", "SSGI"], ["SSGI", "Glare"], ["Glare", "Color Balance"],
+                   ["Color Balance", "Group Output"]])
+    assert r["links1"] == want and r["links2"] == want
+    assert r["n"] == 5
+    assert r["passes"] == [True, True, True, True] and r["ao"] is False
+    assert r["add_menu"] and r["render_menu"] and r["handler"]
