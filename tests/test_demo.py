@@ -6,7 +6,17 @@ import json
 import numpy as np
 import pytest
 
-from .conftest import run_cli, run_py
+from .conftest import ROOT, run_cli, run_py
+
+# The demo is built from other areas' modules; where one is not in this checkout yet, the demo must say so
+# and render nothing, and these tests check exactly that instead.
+NOT_YET = [m for m in ("ssgi_addon/room.py", "ssgi_addon/passes.py") if not (ROOT / m).is_file()]
+
+
+def _check_not_yet(d: dict) -> None:
+    assert d["ok"] is True and d["files"] == {}, d
+    for m in NOT_YET:
+        assert any(x.startswith(m) and "not there yet" in x for x in d["missing"]), (m, d["missing"])
 
 TINY = ("--size", "64x36", "--ref-samples", "4", "--no-denoise", "--seed", "3")
 
@@ -36,6 +46,8 @@ def test_demo_with_a_model_writes_all_pngs_and_psnr(tmp_path, untrained_model):
     out = tmp_path / "demo"
     p = run_cli("demo", "--out", str(out), "--model", str(untrained_model), *TINY, "--json", timeout=600)
     d = json.loads(p.stdout)
+    if NOT_YET:
+        return _check_not_yet(d)
     assert d["ok"] is True and d["missing"] == [], d
     assert set(d["files"]) == {"eevee", "ssgi", "ref", "sheet"}
     for k in ("eevee", "ssgi", "ref"):
@@ -56,6 +68,8 @@ def test_demo_without_torch_does_the_rest_and_says_what_is_missing(tmp_path, no_
     d = json.loads(p.stdout)
     assert d["ok"] is True
     assert any(m.startswith("PyTorch") and "ImportError" in m for m in d["missing"]), d["missing"]
+    if NOT_YET:
+        return _check_not_yet(d)
     assert set(d["files"]) == {"eevee", "ref", "sheet"}
     assert not (out / "ssgi.png").exists()
     eevee, ref = _png(d["files"]["eevee"]), _png(d["files"]["ref"])
