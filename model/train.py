@@ -16,9 +16,14 @@ Used by ``cli.py train`` and by the Blender "Train" operator's worker thread (it
   written atomically; ``MODEL`` is rewritten only when validation PSNR (seed's convention) improves, so
   MODEL is always the best model so far. A learning-curve PNG ``MODEL.curve.png`` is written beside it.
 - Resume: continues from ``MODEL.last.pt`` at the start of the next epoch with the same step count,
-  optimizer state and RNG state; on CPU with a fixed seed the result equals an uninterrupted run.
+  optimizer state and RNG state; on CPU with a fixed seed the result equals an uninterrupted run. The
+  stored settings are used, except ``--lr``, ``--clip``, ``--early-stop``, ``--epochs``, ``--minutes`` when
+  given again (a diverged run can resume with a lower learning rate).
+- Data guard: a batch whose loss is non-finite because a crop holds a non-finite value leaves that sample
+  out of training from then on (logged; ``left_out`` in the summary).
 - NaN guard: a step whose loss or gradient norm is non-finite (or whose loss exceeds 50x the running mean)
-  is skipped. After 3 such steps in a row the weights and optimizer go back to the last good snapshot and
+  is skipped. After 3 such steps in a row the weights and optimizer go back to the last good snapshot (taken
+every 50 sane losses, before the update) and
   the learning rate is halved; after 6 halvings training stops with a UserError. Weights with a NaN are
   never saved (checkpoint.save refuses them), so the last good checkpoint stays.
 - Cancel: ``should_stop()`` is checked before every batch; the last checkpoint stays as it is.
@@ -151,9 +156,12 @@ class Trainer:
                 if "train_state" not in resume:
                     raise UserError(f"{self.last}: has no training state to resume from")
                 stored = resume["train_state"]["config"]
-                for k in ("variant", "inputs", "arch", "optimizer", "lr", "clip", "batch", "crop",
-                          "crops_per_image", "seed", "val_fraction"):
+                for k in ("variant", "inputs", "arch", "optimizer", "batch", "crop", "crops_per_image", "seed",
+                          "val_fraction"):
                     setattr(cfg, k, stored[k])
+                for k in ("lr", "clip", "early_stop"):  # given again: the new value wins (e.g. a lower lr)
+                    if getattr(cfg, k) is None:
+                        setattr(cfg, k, stored[k])
                 if cfg.epochs is None and cfg.minutes is None:
                     cfg.epochs, cfg.minutes = stored["epochs"], stored["minutes"]
                 self.log(f"resuming from {self.last} at epoch {resume['train_state']['epoch']}, "
@@ -204,6 +212,7 @@ class Trainer:
         self.best: dict = {}
         self.lr_scale = 1.0
         self.lr_drops = self.skipped = 0
+        self.quarantine: list[str] = []
         if resume is not None:
             self.net.load_state_dict(resume["state_dict"])
             ts = resume["train_state"]
@@ -212,6 +221,7 @@ class Trainer:
             torch.set_rng_state(ts["torch_rng"])
             self.step, self.epoch, self.elapsed = ts["step"], ts["epoch"], ts["elapsed"]
             self.lr_scale, self.lr_drops, self.skipped = ts["lr_scale"], ts["lr_drops"], ts["skipped"]
+            self.quarantine = list(ts["quarantine"])
             self.history = list(resume["history"])
             self.best = dict(ts["best"])
         self.log(f"{cfg.variant}: {network.count_params(self.net):,} parameters, receptive field "
@@ -229,7 +239,8 @@ class Trainer:
     def _train_state(self) -> dict:
         return dict(config=asdict(self.cfg), optimizer=self.opt.state_dict(), generator=self.gen.get_state(),
                     torch_rng=torch.get_rng_state(), step=self.step, epoch=self.epoch, elapsed=self.elapsed,
-                    lr_scale=self.lr_scale, lr_drops=self.lr_drops, skipped=self.skipped, best=dict(self.best))
+                    lr_scale=self.lr_scale, lr_drops=self.lr_drops, skipped=self.skipped, best=dict(self.best),
+                    quarantine=list(self.quarantine))
 
     def _progress(self, epoch_frac: float) -> float:
         p = 0.0
@@ -249,9 +260,12 @@ class Trainer:
 
     def _batch(self, idx: torch.Tensor):
         ch_, cw = self.crop
-        xs, ys = [], []
+        xs, ys, used = [], [], []
         for i in idx.tolist():
             s = self.train_set[i]
+            if s.key in self.quarantine:
+                continue
+            used.append(i)
             H, W = s.x.shape[1:]
             y0 = int(torch.randint(0, H - ch_ + 1, (1,), generator=self.gen))
             x0 = int(torch.randint(0, W - cw + 1, (1,), generator=self.gen))
@@ -263,12 +277,16 @@ class Trainer:
                 y = torch.flip(y, dims=[-1])
             xs.append(x)
             ys.append(y)
-        return torch.cat(xs), torch.cat(ys)
+        if not xs:
+            return None, None, used
+        return torch.cat(xs), torch.cat(ys), used
 
     def _bad_step(self, why: str):
         self.skipped += 1
         self.bad_streak += 1
         self.opt.zero_grad(set_to_none=True)
+        if self.skipped <= 20:
+            self.log(f"step {self.step}: {why}; step skipped" + (" (further skips are not logged)" if self.skipped == 20 else ""))
         if self.bad_streak >= BAD_STREAK:
             self.bad_streak = 0
             self.lr_drops += 1
@@ -281,18 +299,32 @@ class Trainer:
             self.log(f"step {self.step}: {why} {BAD_STREAK} times in a row; back to the last good weights, "
                      f"learning rate halved (x{self.lr_scale:g})")
 
-    def _train_step(self, x, y, lr) -> float | None:
+    def _train_step(self, x, y, lr, used=()) -> float | None:
         for g in self.opt.param_groups:
             g["lr"] = lr
         out = self.net(x)
         loss = torch.mean((out - normalize.light_forward(y)) ** 2)
-        lv = float(loss)
+        lv = float(loss.detach())
         if not math.isfinite(lv):
+            bad = [i for k, i in enumerate(used) if not (torch.isfinite(x[k]).all() and torch.isfinite(y[k]).all())]
+            if bad:  # a data fault, not a training fault: leave the sample out from now on
+                for i in bad:
+                    s = self.train_set[i]
+                    if s.key not in self.quarantine:
+                        self.quarantine.append(s.key)
+                        self.log(f"step {self.step}: sample {s.key} (scene {s.scene}) holds non-finite values; "
+                                 "left out of training from now on")
+                self.opt.zero_grad(set_to_none=True)
+                self.skipped += 1
+                return None
             self._bad_step("non-finite loss")
             return None
         if self.loss_ema is not None and lv > EXPLODE * max(self.loss_ema, 1e-4):
             self._bad_step(f"exploding loss ({lv:.3g} vs running mean {self.loss_ema:.3g})")
             return None
+        self.good_losses += 1
+        if self.good_losses % SNAPSHOT_EVERY == 0:  # weights that just gave a sane loss
+            self._snapshot()
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         gn = torch.nn.utils.clip_grad_norm_(self.net.parameters(), self.clip if self.clip else float("inf"))
@@ -307,8 +339,6 @@ class Trainer:
         self.bad_streak = 0
         self.loss_ema = lv if self.loss_ema is None else 0.95 * self.loss_ema + 0.05 * lv
         self.step += 1
-        if self.step % SNAPSHOT_EVERY == 0:
-            self._snapshot()
         return lv
 
     # ---- the loop ----------------------------------------------------------------------------------
@@ -317,7 +347,7 @@ class Trainer:
         stop = should_stop or (lambda: False)
         self._setup()
         cfg = self.cfg
-        self.bad_streak = 0
+        self.bad_streak = self.good_losses = 0
         self.loss_ema = None
         status, t_last_cb = "done", 0.0
         since_best = 0
@@ -347,8 +377,8 @@ class Trainer:
                     partial = True
                     break
                 prog = self._progress(self.epoch + b / nb)
-                x, y = self._batch(plan[b * cfg.batch:(b + 1) * cfg.batch])
-                lv = self._train_step(x, y, self._lr(prog))
+                x, y, used = self._batch(plan[b * cfg.batch:(b + 1) * cfg.batch])
+                lv = self._train_step(x, y, self._lr(prog), used) if used else None
                 if lv is not None:
                     losses.append(lv)
                 now = time.perf_counter()
@@ -379,12 +409,11 @@ class Trainer:
                      f"(tm {ev['val_tm_psnr']:.2f}, SSIM {ev['val_ssim']:.3f})  {self.elapsed / 60:.2f} min"
                      + ("  *best" if improved else ""))
             cb(self._state("epoch", self._progress(self.epoch), entry["loss"]))
-            self._snapshot()
         if self.history:
             curve_png(self.history, checkpoint.curve_path(self.out), f"{cfg.variant} on {Path(cfg.data).name}")
         summary = dict(status=status, model=str(self.out), last=str(self.last), epochs=self.epoch, step=self.step,
                        minutes=self.elapsed / 60, best=self.best, skipped_steps=self.skipped, lr_drops=self.lr_drops,
-                       params=network.count_params(self.net), variant=cfg.variant,
+                       params=network.count_params(self.net), variant=cfg.variant, left_out=list(self.quarantine),
                        curve=str(checkpoint.curve_path(self.out)) if self.history else None)
         cb(dict(self._state("end", 1.0, math.nan), status=status))
         return summary
