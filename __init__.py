@@ -15,6 +15,9 @@ _CLASS_MODULES = (
     "panels.main_panel",
     "ops.node_ops",
     "panels.node_panel",
+    "ssgi_addon.training",
+    "ops.train_ops",
+    "panels.train_panel",
 )
 
 

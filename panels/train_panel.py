@@ -1,0 +1,54 @@
+"""The Train panel (child of the SSGI panel in Render properties): settings, the Train button, and while a
+training runs its epoch, loss, validation PSNR, ETA and a Cancel button. It only draws."""
+from __future__ import annotations
+
+import bpy
+
+from ..ssgi_addon import jobs, training
+
+
+class SSGI_PT_train(bpy.types.Panel):
+    bl_label = "Train"
+    bl_idname = "SSGI_PT_train"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "SSGI_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        s = getattr(context.scene, "ssgi", None)
+        if s is None:
+            return
+        job = jobs.get(training.JOB)
+        running = job is not None and not job.done
+        col = layout.column()
+        col.enabled = not running
+        col.prop(s, "dataset_dir")
+        col.prop(s, "train_out")
+        row = col.row()
+        row.prop(s, "train_variant")
+        row.prop(s, "train_minutes")
+        col.prop(s, "train_resume")
+        if running:
+            layout.progress(factor=float(job.state.get("progress", 0.0)), type="BAR",
+                            text=training.status_text(job.state))
+            if job.state.get("best_psnr") is not None:
+                layout.label(text=f"Best validation PSNR {job.state['best_psnr']:.2f} dB")
+            layout.operator("ssgi.train_cancel", icon="CANCEL")
+            return
+        layout.operator("ssgi.train", icon="PLAY")
+        if job is not None:
+            st = job.state.get("status")
+            if st == "error":
+                layout.label(text=(job.state.get("message") or "error")[:120], icon="ERROR")
+            elif st in ("done", "cancelled"):
+                best = (job.result or {}).get("best", {}).get("val_psnr", job.state.get("best_psnr"))
+                txt = f"{st.capitalize()} after epoch {job.state.get('epoch', 0)}"
+                if best is not None:
+                    txt += f", best val PSNR {best:.2f} dB"
+                layout.label(text=txt, icon="CHECKMARK" if st == "done" else "INFO")
+
+
+CLASSES = (SSGI_PT_train,)
