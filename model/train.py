@@ -100,7 +100,7 @@ def evaluate(net, samples, with_ssim: bool = True) -> dict:
     net.eval()
     with torch.inference_mode():
         for s in samples:
-            out = net(s.x[None])
+            out = net(s.x[None].contiguous(memory_format=torch.channels_last))
             sq += float(((out - normalize.light_forward(s.y[None])) ** 2).sum())
             n += out.numel()
             pred = network.to_linear(out)[0].permute(1, 2, 0).numpy()
@@ -193,6 +193,7 @@ class Trainer:
         torch.manual_seed(cfg.seed)
         self.net = network.build(network.arch_for(cfg.variant, spec, **cfg.arch))
         self.net.train()
+        self.net.to(memory_format=torch.channels_last)  # measured 1.2-1.6x faster steps on this CPU
         lr = cfg.lr if cfg.lr is not None else (1e-3 if cfg.optimizer == "adam" else 1e-2)
         self.base_lr = lr
         self.clip = cfg.clip if cfg.clip is not None else (1.0 if cfg.optimizer == "sgd" else None)
@@ -279,7 +280,7 @@ class Trainer:
             ys.append(y)
         if not xs:
             return None, None, used
-        return torch.cat(xs), torch.cat(ys), used
+        return torch.cat(xs).contiguous(memory_format=torch.channels_last), torch.cat(ys), used
 
     def _bad_step(self, why: str):
         self.skipped += 1
