@@ -155,12 +155,13 @@ class Predictor:
     needs). Non-finite inputs are repaired by normalize's rule; ``last_repaired`` holds the pixel count.
     The output is clamped to [0, OUTPUT_BOUND * max(1, brightest value of the input light groups)].
     ``num_threads`` sets torch's (process-wide) thread count before each prediction when given.
-    ``precision``: ``fp32`` (NCHW), ``fp32-cl`` (channels_last memory format, same numbers up to summation
-    order) or ``bf16-cl`` (convolutions in bfloat16 under torch.autocast, head and output in float32).
+    ``precision``: ``fp32-cl`` (default: float32 in channels_last memory format, 1.2-1.6x faster than NCHW
+    here, same numbers up to summation order), ``fp32`` (NCHW) or ``bf16-cl`` (convolutions in bfloat16 under
+    torch.autocast, using the CPU's AMX units; head and output in float32).
     """
 
     def __init__(self, net, ckpt: dict, path=None, num_threads: int | None = None, tile: int | None = DEFAULT_TILE,
-                 precision: str = "fp32"):
+                 precision: str = "fp32-cl"):
         if precision not in PRECISIONS:
             raise UserError(f"precision must be one of {', '.join(PRECISIONS)}, not {precision!r}")
         self.precision = precision
@@ -212,6 +213,6 @@ class Predictor:
 
 
 def load_predictor(path, num_threads: int | None = None, tile: int | None = DEFAULT_TILE,
-                   precision: str = "fp32") -> Predictor:
+                   precision: str = "fp32-cl") -> Predictor:
     ckpt = load(path)
     return Predictor(build_net(ckpt, path), ckpt, path=path, num_threads=num_threads, tile=tile, precision=precision)
