@@ -47,6 +47,12 @@ _PREDICTORS: dict = {}
 WORLD_DEPTH_FRACTION = 0.999  # depth >= this * clip_end: no geometry (EEVEE writes clip_end there)
 
 
+def peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MiB)."""
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def log(msg: str) -> None:
     print(f"SSGI: {msg}", file=sys.stderr, flush=True)
 
@@ -333,12 +339,16 @@ class RenderSession:
                 missing = [g for g in self.groups if g not in groups]
                 if missing:
                     raise UserError(f"the pass render returned no {', '.join(missing)} for scene {scene.name!r}")
-                save_multilayer(scene, exr)
                 info["t_passes"] = time.perf_counter() - t0
+                info["rss_mb_passes"] = peak_rss_mb()
+                t0 = time.perf_counter()
+                save_multilayer(scene, exr)
+                info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
             pred = self.predictor.predict({g: groups[g] for g in ch.required_groups(self.spec)})
             rgb = compose(pred, groups, scene.camera.data.clip_end)
             info["t_predict"] = time.perf_counter() - t0
+            info["rss_mb_predict"] = peak_rss_mb()
             t0 = time.perf_counter()
             with preserved(scene):
                 scene.render.use_compositing = True

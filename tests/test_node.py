@@ -144,6 +144,9 @@ out["after_equal"] = settings_snapshot(sc) == before
 out["diff"] = {{k: (before[k], settings_snapshot(sc)[k]) for k in before if before[k] != settings_snapshot(sc)[k]}}
 info = s.results[0]
 out["plain_ssgi"] = info["path"]
+from tests import ui_recorder
+from ssgi.panels import node_panel
+out["panel_after_ssgi"] = ui_recorder.draw(node_panel.SSGI_PT_render).labels()
 np.savez({str(d / "g1.npz")!r}, **info["groups"])
 out["clip_end"] = sc.camera.data.clip_end
 # a plain render: must not show the prediction just made
@@ -151,6 +154,8 @@ sc.render.filepath = {str(d / "plain")!r}
 bpy.ops.render.render(write_still=True)
 img = bpy.data.images["SSGI Prediction"]
 out["after_plain_state"] = img.get("ssgi_state")
+out["panel_after_plain"] = ui_recorder.draw(node_panel.SSGI_PT_render).labels()
+out["label_after_plain"] = next(n.label for n in sc.compositing_node_group.nodes if n.name == "SSGI")
 sc.render.filepath = {str(d / "out" / "f_####")!r}
 # the artist's nodes after SSGI: Invert, then add Render Layers' Diffuse Color
 tree = sc.compositing_node_group
@@ -202,6 +207,10 @@ def test_plain_render_shows_placeholder_not_the_stale_prediction(rendered):
     np.testing.assert_array_equal(plain[..., :3], np.broadcast_to(np.float32([1, 0, 1]), plain[..., :3].shape))
     assert rendered["after_plain_state"] == "placeholder"
     assert "placeholder, not a prediction" in rendered["stderr"]
+    # the node and the panel say so too; right after the SSGI render the panel said the image was current
+    assert rendered["label_after_plain"] == "SSGI: placeholder, use Render SSGI"
+    assert "Shows frame 2 (current)" in rendered["panel_after_ssgi"]
+    assert "Placeholder (magenta): render with SSGI" in rendered["panel_after_plain"]
 
 
 def test_nodes_after_ssgi_apply_invert_and_pass_mix(room, rendered):
@@ -344,7 +353,10 @@ bpy.ops.ssgi.setup(model={str(room["model"])!r})
 links2 = sorted((l.from_node.name, l.to_node.name) for l in tree.links)
 vl = sc.view_layers[0]
 from ssgi.ops import node_ops
-json.dump({{"links1": links1, "links2": links2, "n": len(tree.nodes),
+from ssgi.panels import node_panel
+from tests import ui_recorder
+rec = ui_recorder.draw(node_panel.SSGI_PT_render)
+json.dump({{"panel_ops": sorted(set(o for o, _ in rec.operators())), "panel_props": rec.props(),"links1": links1, "links2": links2, "n": len(tree.nodes),
            "passes": [vl.use_pass_diffuse_color, vl.use_pass_normal, vl.use_pass_z, vl.use_pass_diffuse_direct],
            "ao": vl.use_pass_ambient_occlusion,
            "add_menu": node_ops.draw_add_menu in bpy.types.NODE_MT_compositor_node_add_all._dyn_ui_initialize(),
@@ -361,3 +373,4 @@ assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
     assert r["n"] == 5
     assert r["passes"] == [True, True, True, True] and r["ao"] is False
     assert r["add_menu"] and r["render_menu"] and r["handler"]
+    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model"]
