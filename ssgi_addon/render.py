@@ -255,7 +255,7 @@ def output_path(scene, frame: int, out: str | None = None, single: bool = False)
     the file name (plus the format's extension when the scene adds extensions and the name has none)."""
     r = scene.render
     if out is not None and single and "#" not in out:
-        p = Path(bpy.path.abspath(out)).expanduser()
+        p = Path(os.path.abspath(os.path.expanduser(bpy.path.abspath(out))))
         if r.use_file_extension and not p.suffix:
             p = p.with_name(p.name + r.file_extension)
         return p
@@ -263,7 +263,7 @@ def output_path(scene, frame: int, out: str | None = None, single: bool = False)
         return Path(r.frame_path(frame=frame))
     old = r.filepath
     try:
-        r.filepath = str(Path(bpy.path.abspath(out)).expanduser()) if not out.startswith("//") else out
+        r.filepath = out if out.startswith("//") else os.path.abspath(os.path.expanduser(out))
         return Path(r.frame_path(frame=frame))
     finally:
         r.filepath = old
