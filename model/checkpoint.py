@@ -197,9 +197,8 @@ class Predictor:
         x, self.last_repaired = normalize.to_inputs(groups, self.spec)
         if self.num_threads:
             torch.set_num_threads(int(self.num_threads))
-        xt = torch.from_numpy(x).permute(2, 0, 1)[None].contiguous()
-        if self.precision != "fp32":
-            xt = xt.contiguous(memory_format=torch.channels_last)
+        xt = torch.from_numpy(x).permute(2, 0, 1)[None]  # HxWxC memory: already channels_last
+        xt = xt.contiguous(memory_format=torch.contiguous_format if self.precision == "fp32" else torch.channels_last)
         with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=self.precision == "bf16-cl"):
             out = tiled_forward(self.net, xt, self.tile if tile == -1 else tile)
         with torch.inference_mode():

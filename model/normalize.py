@@ -68,50 +68,50 @@ def repair(groups: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], int]:
         if a.ndim == 2:
             a = a[..., None]
         kind = _kind(name)
-        finite = np.isfinite(a)
-        if not finite.all():
+        with np.errstate(invalid="ignore", over="ignore"):
+            total = a.sum(dtype=np.float32)
+        if not np.isfinite(total):  # fast path: a finite sum means all values are finite
+            finite = np.isfinite(a)
             b = ~finite.all(axis=-1)
             bad = b if bad is None else bad | b
             hi = np.float32(np.inf if kind == "depth" else LIGHT_MAX)  # depth: inf becomes background later
             a = np.where(np.isnan(a), np.float32(0.0), a)
             a = np.where(a == np.inf, hi, a)
             a = np.where(a == -np.inf, np.float32(0.0), a).astype(np.float32)
-        if kind == "light":
-            a = np.clip(a, 0.0, LIGHT_MAX)
-        elif kind in ("color", "unit"):
-            a = np.clip(a, 0.0, 1.0)
-        elif kind == "normal":
-            a = np.clip(a, -1.0, 1.0)
+        lo, hi = {"light": (0.0, LIGHT_MAX), "color": (0.0, 1.0), "unit": (0.0, 1.0), "normal": (-1.0, 1.0)}.get(kind, (None, None))
+        if lo is not None:
+            a = np.clip(a, np.float32(lo), np.float32(hi))
         out[name] = a
     return out, int(bad.sum()) if bad is not None else 0
 
 
 def geometry_mask(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
     """HxW bool: pixels where something was hit (see module doc)."""
-    z = np.asarray(depth, dtype=np.float64)
+    z = np.asarray(depth, dtype=np.float32)
     if z.ndim == 3:
         z = z[..., 0]
     with np.errstate(invalid="ignore"):
-        m = np.isfinite(z) & (z > 0) & (z < DEPTH_BACKGROUND)
+        m = (z > 0) & (z < DEPTH_BACKGROUND)  # False for NaN and +-inf
     if normal is not None:
-        n = np.asarray(normal, dtype=np.float64)
+        n = np.asarray(normal, dtype=np.float32)
         with np.errstate(invalid="ignore", over="ignore"):
-            m &= np.nan_to_num((n * n).sum(axis=-1), nan=0.0, posinf=1.0) > 0.25
+            n2 = np.einsum("...i,...i->...", n, n)
+        m &= (n2 > 0.25) | np.isinf(n2)  # NaN compares False
     return m
 
 
 def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
     """HxWx1 float32 in [0, 1]: z/(z+median), background 1. Scale free and finite for any input."""
-    z = np.asarray(depth, dtype=np.float64)
-    if z.ndim == 2:
-        z = z[..., None]
+    z = np.asarray(depth, dtype=np.float32)
+    if z.ndim == 3:
+        z = z[..., 0]
     geo = geometry_mask(z, normal)
-    out = np.ones(z.shape[:2], dtype=np.float64)
-    if geo.any():
-        zg = z[..., 0][geo]
-        m = float(np.median(zg))
+    out = np.ones(z.shape, dtype=np.float32)
+    zg = z[geo]
+    if zg.size:
+        m = np.float32(np.median(zg))
         out[geo] = zg / (zg + m)
-    return out[..., None].astype(np.float32)
+    return out[..., None]
 
 
 def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
@@ -131,20 +131,18 @@ def to_inputs(groups: dict[str, np.ndarray], spec: tuple[str, ...]) -> tuple[np.
     need = ch.required_groups(spec)
     extra = ("normal",) if "depth" in spec and "normal" in groups and "normal" not in need else ()
     rep, n_bad = repair({g: groups[g] for g in need + extra})
-    parts = []
-    for g in spec:
-        if g in ch.DERIVED:
-            a = derived(g, rep)
-        else:
-            a = rep[g]
+    h, w = next(iter(rep.values())).shape[:2]
+    x = np.empty((h, w, ch.input_channels(spec)), np.float32)
+    for g, sl in layout(spec).items():
+        a = derived(g, rep) if g in ch.DERIVED else rep[g]
         kind = _kind(g)
         if kind == "light":
-            a = np.log1p(a)
+            np.log1p(a, out=x[..., sl])
         elif kind == "depth":
-            a = depth_normalise(a, rep.get("normal"))
-        parts.append(a.astype(np.float32))
-    x = np.concatenate(parts, axis=-1)
-    return np.ascontiguousarray(x), n_bad
+            x[..., sl] = depth_normalise(a, rep.get("normal"))
+        else:
+            x[..., sl] = a
+    return x, n_bad
 
 
 def light_forward(x):

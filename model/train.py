@@ -432,3 +432,40 @@ class Trainer:
         checkpoint.save(self.last, checkpoint.make(self.net, "network", train_state=self._train_state(), **kw))
         if improved:
             checkpoint.save(self.out, checkpoint.make(self.net, "network", **kw))
+
+
+def compare_png(models, path, title="validation PSNR against training time") -> list[dict]:
+    """One plot of several checkpoints' learning curves (from MODEL.last.pt's history when present); a
+    closed-form baseline (one history entry) is drawn as a horizontal line. Returns the rows plotted."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
+    rows = []
+    for m in models:
+        m = Path(m)
+        src = checkpoint.last_path(m) if checkpoint.last_path(m).is_file() else m
+        ck = checkpoint.load(src)
+        h = ck["history"]
+        label = f"{ck['arch']['variant']} ({m.stem}, {ck.get('params', 0) / 1000:.0f}k)"
+        if ck.get("kind") == "linear":
+            ax.axhline(h[-1]["val_psnr"], ls=":", color="k", label=f"linear baseline {h[-1]['val_psnr']:.2f} dB")
+        else:
+            ax.plot([e["minutes"] for e in h], [e["val_psnr"] for e in h], "-", label=label)
+        best = max(h, key=lambda e: e["val_psnr"])
+        rows.append(dict(model=str(m), variant=ck["arch"]["variant"], params=ck.get("params"), best_val_psnr=best["val_psnr"],
+                         best_val_tm_psnr=best.get("val_tm_psnr"), best_val_ssim=best.get("val_ssim"),
+                         minutes=h[-1]["minutes"], epochs=h[-1]["epoch"]))
+    ax.set_xlabel("training minutes")
+    ax.set_ylabel("val PSNR, linear clamped (dB)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(path)
+    return rows

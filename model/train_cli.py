@@ -70,6 +70,15 @@ def run_bench(args) -> dict:
                  repeats=args.repeats, precisions=args.precision, out=args.out)
 
 
+def run_curves(args) -> dict:
+    from .train import compare_png
+    rows = compare_png(args.models, args.out)
+    for r in rows:
+        print(f"{r['variant']:>10} {r['params'] or 0:>8} params  best val PSNR {r['best_val_psnr']:.2f} dB  "
+              f"after {r['minutes']:.1f} min ({r['epochs']} epochs)  {r['model']}", file=sys.stderr)
+    return dict(out=args.out, rows=rows)
+
+
 def register_cli(sub) -> None:
     from . import channels as ch
     from . import variants
@@ -119,6 +128,11 @@ def register_cli(sub) -> None:
     p.add_argument("--threads", type=int, help="torch threads")
     p.add_argument("--tile", type=int, help="tile size for big images (default 1024)")
     p.set_defaults(func=run_predict)
+
+    p = sub.add_parser("curves", help="plot the learning curves of several models in one PNG")
+    p.add_argument("--models", nargs="+", required=True, metavar="M", help="checkpoints (train or baseline)")
+    p.add_argument("--out", required=True, metavar="PNG")
+    p.set_defaults(func=run_curves)
 
     p = sub.add_parser("bench", help="time prediction of each variant at several sizes",
                        description="Prints prediction time (median of --repeats) and peak memory per variant and size.")

@@ -271,3 +271,12 @@ def test_bf16_path_agrees_with_fp32():
     assert metrics.tm_psnr(b, a) >= 40
     g["direct"] *= np.float32(2000)
     assert np.isfinite(checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)).all()
+
+
+def test_predictor_1921x1081_keeps_shape_and_tiles_match():
+    """Odd full-HD size: the default tiling (1024 core + overlap) equals one untiled pass."""
+    pred = _predictor("unet_s")
+    g = synthetic_groups(1921, 1081, seed=5)
+    tiled = pred.predict(g)
+    assert tiled.shape == (1081, 1921, 3) and np.isfinite(tiled).all()
+    np.testing.assert_allclose(pred.predict(g, tile=None), tiled, rtol=1e-4, atol=1e-5)
