@@ -124,11 +124,18 @@ def curve_png(history, path, title="") -> None:
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
     ax.plot(xs, [h["val_psnr"] for h in history], "o-", ms=3, label="val PSNR (linear, clamped)")
     ax.plot(xs, [h["val_tm_psnr"] for h in history], "s--", ms=3, alpha=0.6, label="val PSNR (tonemapped)")
+    _finish_plot(fig, ax, path, title, "PSNR (dB)")
+
+
+def _finish_plot(fig, ax, path, title, ylabel, fontsize=None) -> None:
+    """Label, then save atomically (temp name + rename)."""
+    import matplotlib.pyplot as plt
+
     ax.set_xlabel("training minutes")
-    ax.set_ylabel("PSNR (dB)")
+    ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend()
+    ax.legend(fontsize=fontsize)
     fig.tight_layout()
     path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp.png")
@@ -457,15 +464,5 @@ def compare_png(models, path, title="validation PSNR against training time") -> 
         rows.append(dict(model=str(m), variant=ck["arch"]["variant"], params=ck.get("params"), best_val_psnr=best["val_psnr"],
                          best_val_tm_psnr=best.get("val_tm_psnr"), best_val_ssim=best.get("val_ssim"),
                          minutes=h[-1]["minutes"], epochs=h[-1]["epoch"]))
-    ax.set_xlabel("training minutes")
-    ax.set_ylabel("val PSNR, linear clamped (dB)")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    _finish_plot(fig, ax, path, title, "val PSNR, linear clamped (dB)", fontsize=8)
     return rows
