@@ -176,12 +176,24 @@ np.savez({str(d / "g2.npz")!r}, **s2.results[0]["groups"])
 out["op"] = sorted(bpy.ops.ssgi.render(write_still=True, filepath={str(d / "op_####")!r}))
 out["op_file"] = {str(d / "op_0002.exr")!r}
 bpy.ops.wm.save_as_mainfile(filepath={str(d / "rendered.blend")!r})
+# transparent film at an odd size and aspect, SSGI straight to the output
+sc.render.film_transparent = True
+sc.render.resolution_x, sc.render.resolution_y = 50, 31
+tree.links.new(ssgi_node.outputs[0], gout.inputs[0])
+s3 = R.RenderSession(sc, [2], out={str(d / "transparent")!r}, keep_groups=True)
+s3.run()
+out["transparent"] = s3.results[0]["path"]
+np.savez({str(d / "g3.npz")!r}, **s3.results[0]["groups"])
+# cancel after the first of three frames
+s4 = R.RenderSession(sc, [1, 2, 3], out={str(d / "cancel" / "c_####")!r})
+out["cancel"] = s4.run(should_cancel=lambda: len(s4.results) >= 1)
 json.dump(out, open({str(res)!r}, "w"), default=str)
 ''', timeout=600)
     r = json.loads(res.read_text())
     r["stderr"] = clean(p.stderr)
     r["g1"] = dict(np.load(d / "g1.npz"))
     r["g2"] = dict(np.load(d / "g2.npz"))
+    r["g3"] = dict(np.load(d / "g3.npz"))
     return r
 
 
@@ -220,6 +232,26 @@ def test_nodes_after_ssgi_apply_invert_and_pass_mix(room, rendered):
     # Invert, then + Render Layers' Diffuse Color (fed by the stand-in of the same render)
     np.testing.assert_allclose(got[..., :3], (1.0 - exp) + g["albedo"], rtol=1e-5, atol=1e-5)
     assert Path(rendered["inverted"]).name == "inverted.exr"
+
+
+def test_transparent_film_keeps_alpha_at_an_odd_size(room, rendered):
+    got = read_rgba(rendered["transparent"])
+    g = rendered["g3"]
+    assert got.shape == (31, 50, 4)
+    exp, world = expected_image(room["model"], g, rendered["clip_end"])
+    alpha = g["eevee"][..., 3]
+    assert (alpha == 0).sum() > 0 and (alpha == 1).sum() > 0
+    np.testing.assert_array_equal(got[..., 3], alpha)
+    np.testing.assert_allclose(got[..., :3], exp, rtol=1e-5, atol=1e-6)
+    assert np.all(got[..., :3][alpha == 0] == 0)
+
+
+def test_cancel_keeps_the_frames_already_written(room, rendered):
+    c = rendered["cancel"]
+    assert c["cancelled"] is True and c["frames"] == [1]
+    files = sorted(p.name for p in (room["dir"] / "cancel").iterdir())
+    assert files == ["c_0001.exr"]  # no frame 2/3, no temporary file left
+    assert read_rgba(room["dir"] / "cancel" / "c_0001.exr").shape == (31, 50, 4)
 
 
 def test_operator_renders_and_writes_where_asked(rendered):
