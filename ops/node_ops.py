@@ -150,9 +150,10 @@ class SSGI_OT_render(bpy.types.Operator):
     def modal(self, context, event):
         if event.type == "ESC":
             ssgi_render.STATE["cancel"] = True
-        if event.type != "TIMER":
-            return {"RUNNING_MODAL"} if not ssgi_render.STATE.get("cancel") else self._step(context)
-        return self._step(context)
+            return self._step(context)
+        if event.type == "TIMER" and event.timer is self._timer:
+            return self._step(context)
+        return {"PASS_THROUGH"}  # the UI stays usable (the panel's Cancel button) between frames
 
     def _step(self, context):
         wm = context.window_manager
@@ -160,10 +161,11 @@ class SSGI_OT_render(bpy.types.Operator):
             info = next(self._iter)
         except StopIteration:
             return self._finish(context)
-        except UserError as e:
-            ssgi_render.STATE.update(status="error", message=str(e))
-            self.report({"ERROR"}, str(e))
+        except Exception as e:  # UserError, or a bug: stop cleanly (timer, progress) and say what happened
+            msg = str(e) if isinstance(e, UserError) else f"{type(e).__name__}: {e}"
             self._finish(context, report=False)
+            ssgi_render.STATE.update(status="error", message=msg)
+            self.report({"ERROR"}, msg)
             return {"CANCELLED"}
         n = len(self._session.results)
         ssgi_render.STATE.update(done=n, progress=n / max(1, len(self._session.frames)),
