@@ -153,7 +153,9 @@ class Predictor:
 
     ``groups``: {group name: HxWxC float32} holding at least ``required`` (the stored groups the input spec
     needs). Non-finite inputs are repaired by normalize's rule; ``last_repaired`` holds the pixel count.
-    The output is clamped to [0, OUTPUT_BOUND * max(1, brightest value of the input light groups)].
+    The output is clamped to [0, OUTPUT_BOUND * max(1, brightest value of the input light groups)], and is 0
+    where the input albedo is black (diffuse surfaces with zero albedo reflect nothing; the demod/residual
+    heads do this by construction, the plain log head needs the rule: issue 7, case 4).
     ``num_threads`` sets torch's (process-wide) thread count before each prediction when given.
     ``precision``: ``fp32-cl`` (default: float32 in channels_last memory format, 1.2-1.6x faster than NCHW
     here, same numbers up to summation order), ``fp32`` (NCHW) or ``bf16-cl`` (convolutions in bfloat16 under
@@ -208,6 +210,8 @@ class Predictor:
             rep, _ = normalize.repair({g: groups[g] for g in ch.required_groups(tuple(lights))})
             peak = max(float(np.max(normalize.derived(g, rep) if g in ch.DERIVED else rep[g], initial=0.0)) for g in lights)
             np.minimum(lin, np.float32(OUTPUT_BOUND * max(1.0, peak)), out=lin)
+        if "albedo" in self.required:
+            lin[~(np.asarray(groups["albedo"]) > 0).any(axis=-1)] = 0.0
         return np.ascontiguousarray(lin, dtype=np.float32)
 
 
