@@ -1,6 +1,6 @@
 """The per-pixel linear-regression baseline, fitted in closed form (bpy-free).
 
-For every training pixel the features are the network's normalised inputs (normalize.to_inputs, the same
+For every training pixel with geometry (data.Sample.mask) the features are the network's normalised inputs (normalize.to_inputs, the same
 input spec) plus a constant 1; the target is the Cycles reference. Least squares over all training pixels:
 w = (X^T X + lambda I)^-1 X^T y, accumulated in float64, with a tiny ridge lambda = 1e-6 * trace(X^T X) / n
 only to keep a rank-deficient X^T X solvable (e.g. a constant input channel).
@@ -21,7 +21,7 @@ import torch
 
 from . import channels as ch
 from . import checkpoint, data, network, normalize
-from .train import evaluate
+from .train import evaluate, geometry
 
 
 def fit(samples, space: str = "linear") -> tuple[np.ndarray, np.ndarray]:
@@ -30,9 +30,10 @@ def fit(samples, space: str = "linear") -> tuple[np.ndarray, np.ndarray]:
     xtx = np.zeros((c + 1, c + 1))
     xty = np.zeros((c + 1, 3))
     for s in samples:
-        x = s.x.reshape(c, -1).T.double().numpy()
+        keep = geometry(s).reshape(-1)
+        x = s.x.reshape(c, -1).T[keep].double().numpy()
         x = np.concatenate([x, np.ones((x.shape[0], 1))], axis=1)
-        y = s.y.reshape(3, -1).T.double()
+        y = s.y.reshape(3, -1).T[keep].double()
         y = (normalize.light_forward(y) if space == "log" else y).numpy()
         xtx += x.T @ x
         xty += x.T @ y

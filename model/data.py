@@ -4,7 +4,9 @@ The whole dataset is read once (300 samples of 240x135 are ~0.6 GB as float32 in
 ``x`` (C x H x W, ``normalize.to_inputs`` for the input spec) and ``y`` (3 x H x W, the Cycles reference in
 linear HDR RGB). A sample whose reference has a non-finite pixel is left out with a warning (it would poison
 the loss); its key is listed in ``skipped``. Inputs are repaired by normalize's rule and the repaired pixels
-counted in ``repaired``.
+counted in ``repaired``. ``mask`` marks the geometry pixels (normalize.geometry_mask of depth and normal):
+pixels where nothing was hit show the world, which no input describes, so the loss, the validation metrics
+and the baseline's fit leave them out (the SSGI node composites the world there).
 
 Train and validation are split by scene (``split_scenes``): samples of one scene never sit on both sides.
 """
@@ -73,6 +75,7 @@ class Sample:
     x: torch.Tensor  # C x H x W normalised inputs
     y: torch.Tensor  # 3 x H x W linear HDR reference
     repaired: int = 0
+    mask: torch.Tensor | None = None  # H x W bool: geometry pixels (normalize.geometry_mask); None = all
 
 
 @dataclass
@@ -89,7 +92,7 @@ class DatasetFolder(torch.utils.data.Dataset):
         root = Path(root)
         spec = ch.parse_spec(spec)
         m = read_manifest(root)
-        groups = tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", ch.TARGET_GROUP)))
+        groups = tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
         ds = cls(root=root, spec=spec, manifest=m)
         items = sorted(m["samples"].items())
         if keys is not None:
@@ -110,8 +113,10 @@ class DatasetFolder(torch.utils.data.Dataset):
                 ds.skipped[key] = f"{int((~np.isfinite(y)).any(axis=-1).sum())} non-finite reference pixel(s)"
                 continue
             x, rep = normalize.to_inputs(g, spec)
+            mask = normalize.geometry_mask(g["depth"], g["normal"])
             ds.samples.append(Sample(key, str(meta["scene"]), torch.from_numpy(x).permute(2, 0, 1).contiguous(),
-                                     torch.from_numpy(np.ascontiguousarray(y)).permute(2, 0, 1).contiguous(), rep))
+                                     torch.from_numpy(np.ascontiguousarray(y)).permute(2, 0, 1).contiguous(), rep,
+                                     torch.from_numpy(mask)))
         if not ds.samples:
             raise UserError(f"{root}: no usable sample (skipped: {ds.skipped})")
         return ds

@@ -7,8 +7,10 @@ Used by ``cli.py train`` and by the Blender "Train" operator's worker thread (it
 - Batches: random ``crop`` x ``crop`` crops of training images, each mirrored left-right with p = 0.5
   (normalize.flip_x negates normal.x). One epoch = ``crops_per_image`` crops of every training image
   (default: image area / crop area, so an epoch sees about as many pixels as the training set has).
-- Loss: mean squared error in log1p space, ``mean((net(x) - log1p(ref))^2)``: log1p compresses bright
-  lights (1e3 -> 6.9) so they do not dominate, and is close to linear for the [0, 1] range the PSNR scores.
+- Loss: mean squared error in log1p space, ``mean((net(x) - log1p(ref))^2)`` over the geometry pixels
+  (data.Sample.mask; where nothing was hit the world shows, which no input describes): log1p compresses
+  bright lights (1e3 -> 6.9) so they do not dominate, and is close to linear for the [0, 1] range the PSNR
+  scores. Validation metrics (``evaluate``) are pooled over the same pixels.
 - Optimizer: Adam (lr 1e-3) by default; ``sgd``: momentum 0.9, lr 1e-2, gradient-norm clipping at ``clip``
   (default 1.0 for SGD, none for Adam). The learning rate follows a cosine from lr to lr/20 over the
   budget (epochs, or minutes when no epoch count is given).
@@ -93,22 +95,31 @@ class TrainConfig:
             raise UserError("the linear variant is fitted in closed form: use `cli.py baseline`")
 
 
+def geometry(s: data.Sample) -> torch.Tensor:
+    """H x W bool mask of the pixels a model is scored on (all when the sample has no mask)."""
+    return s.mask if s.mask is not None else torch.ones(s.y.shape[1:], dtype=torch.bool)
+
+
 def evaluate(net, samples, with_ssim: bool = True) -> dict:
-    """Validation metrics over whole images: pooled PSNR (seed's), tonemapped PSNR, mean SSIM, log-MSE."""
+    """Validation metrics over the geometry pixels of whole images (data.Sample.mask): PSNR by the seed's
+    convention and after the tonemap, pooled over all those pixels of all images; log-space MSE (the loss);
+    mean SSIM of the image with the reference composited where nothing was hit (as the node shows it)."""
     p, tp = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True)
     ss, sq, n = [], 0.0, 0
     net.eval()
     with torch.inference_mode():
         for s in samples:
             out = net(s.x[None].contiguous(memory_format=torch.channels_last))
-            sq += float(((out - normalize.light_forward(s.y[None])) ** 2).sum())
-            n += out.numel()
+            m = geometry(s)
+            sq += float((((out - normalize.light_forward(s.y[None])) ** 2) * m).sum())
+            n += 3 * int(m.sum())
             pred = network.to_linear(out)[0].permute(1, 2, 0).numpy()
             ref = s.y.permute(1, 2, 0).numpy()
-            p.add(pred, ref)
-            tp.add(pred, ref)
+            mk = m.numpy()
+            p.add(pred[mk], ref[mk])
+            tp.add(pred[mk], ref[mk])
             if with_ssim:
-                ss.append(metrics.ssim(pred, ref))
+                ss.append(metrics.ssim(np.where(mk[..., None], pred, ref), ref))
     net.train()
     return dict(val_psnr=p.value, val_tm_psnr=tp.value, val_ssim=float(np.mean(ss)) if ss else math.nan,
                 val_loss=sq / max(n, 1))
@@ -268,7 +279,7 @@ class Trainer:
 
     def _batch(self, idx: torch.Tensor):
         ch_, cw = self.crop
-        xs, ys, used = [], [], []
+        xs, ys, ms, used = [], [], [], []
         for i in idx.tolist():
             s = self.train_set[i]
             if s.key in self.quarantine:
@@ -280,13 +291,17 @@ class Trainer:
             flip = bool(torch.randint(0, 2, (1,), generator=self.gen))
             x = s.x[None, :, y0:y0 + ch_, x0:x0 + cw]
             y = s.y[None, :, y0:y0 + ch_, x0:x0 + cw]
+            m = geometry(s)[None, None, y0:y0 + ch_, x0:x0 + cw]
             if flip:
                 x = normalize.flip_x(x, self.dataset.spec, axis=1)
                 y = torch.flip(y, dims=[-1])
+                m = torch.flip(m, dims=[-1])
             xs.append(x)
             ys.append(y)
+            ms.append(m)
         if not xs:
             return None, None, used
+        self.batch_mask = torch.cat(ms).float()
         return torch.cat(xs).contiguous(memory_format=torch.channels_last), torch.cat(ys), used
 
     def _bad_step(self, why: str):
@@ -311,7 +326,8 @@ class Trainer:
         for g in self.opt.param_groups:
             g["lr"] = lr
         out = self.net(x)
-        loss = torch.mean((out - normalize.light_forward(y)) ** 2)
+        m = self.batch_mask
+        loss = (((out - normalize.light_forward(y)) ** 2) * m).sum() / (3 * m.sum()).clamp_min(1.0)
         lv = float(loss.detach())
         if not math.isfinite(lv):
             bad = [i for k, i in enumerate(used) if not (torch.isfinite(x[k]).all() and torch.isfinite(y[k]).all())]

@@ -286,3 +286,24 @@ def test_blender_train_cancel_keeps_last_checkpoint(tmp_path, dataset_dir):
     assert last["train_state"]["epoch"] >= 1
     assert rep["state"]["step"] <= rep["cancel_asked_at_step"] + 1  # stopped within one batch
     assert rep["model_path"] == ""  # a cancelled run does not switch the scene's model
+
+
+def test_background_pixels_are_left_out_of_metrics_and_loss(dataset_dir):
+    """Where nothing was hit (zero normal) the world shows; the metrics and the baseline fit ignore it."""
+    from ssgi.model.train import evaluate
+    net = network.build(network.arch_for("linear", space="linear"))
+    with torch.no_grad():
+        net.conv.weight.zero_()
+        net.conv.bias.fill_(0.25)
+    x = torch.zeros(13, 6, 8)
+    y = torch.full((3, 6, 8), 0.25)
+    mask = torch.ones(6, 8, dtype=torch.bool)
+    mask[:, :3] = False
+    y[:, :, :3] = 7.0  # the world, bright: not the model's job
+    s = data.Sample("k", "s", x, y, 0, mask)
+    assert evaluate(net, [s])["val_psnr"] == math.inf
+    assert evaluate(net, [data.Sample("k", "s", x, y)])["val_psnr"] < 10  # scored everywhere without a mask
+    w, b = fit([s])
+    np.testing.assert_allclose(b, [0.25] * 3, atol=1e-6)
+    ds = data.DatasetFolder.load(dataset_dir)
+    assert all(bool(s.mask.all()) for s in ds.samples)  # synthetic samples: geometry everywhere
