@@ -90,12 +90,13 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
             ckpt = checkpoint.load(model)
             net = checkpoint.build_net(ckpt, model)
         label = name or str(model)
+        macs = network.macs_per_pixel(net)
         for prec in precisions:
             pred = checkpoint.Predictor(net, ckpt, path=label, precision=prec)
             for w, h in sizes:
                 r = time_predictor(pred, w, h, repeats if w * h < 1e6 else max(1, repeats // 2))
                 row = dict(model=label, precision=prec, size=f"{w}x{h}", params=network.count_params(net),
-                           macs_per_px=network.macs_per_pixel(pred.net) if prec == "fp32" else None, **r)
+                           macs_per_px=macs, **r)
                 rows.append(row)
                 print(f"{label:>10} {prec:>8} {w:>5}x{h:<5} {r['ms']:9.1f} ms (min {r['ms_min']:.1f})"
                       + (f"  peak +{r['peak_mb']:.0f} MB" if r["peak_mb"] is not None else ""), file=sys.stderr, flush=True)
