@@ -6,7 +6,11 @@ when complete, so a killed writer never leaves a half-written sample under its f
 """
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
+import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +52,33 @@ def write_exr(path, planes: dict[str, np.ndarray], half: bool = True, header: di
             tmp.unlink()
 
 
+_STDOUT_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    """OpenEXR's binding prints "Warning: Exception raised reading pixel data ..." on C stdout for a file cut
+    short; keep stdout for ``--json`` summaries (flush C stdio before and after moving file descriptor 1)."""
+    try:
+        libc = ctypes.CDLL(None)
+    except (OSError, TypeError):  # no process-wide C library handle (Windows): leave stdout alone
+        libc = None
+    if libc is None:
+        yield
+        return
+    with _STDOUT_LOCK:
+        sys.stdout.flush()
+        libc.fflush(None)
+        saved = os.dup(1)
+        os.dup2(2, 1)
+        try:
+            yield
+        finally:
+            libc.fflush(None)
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
 def read_exr(path) -> tuple[dict[str, np.ndarray], dict]:
     """Read every channel of every part of ``path`` as float32 planes. Raises UserError naming the file."""
     import OpenEXR
@@ -56,7 +87,9 @@ def read_exr(path) -> tuple[dict[str, np.ndarray], dict]:
     if not path.is_file():
         raise UserError(f"{path}: no such EXR file")
     try:
-        f = OpenEXR.File(str(path), separate_channels=True)
+        declared = [c.name for part in OpenEXR.File(str(path), header_only=True).parts for c in part.header["channels"]]
+        with _stdout_to_stderr():
+            f = OpenEXR.File(str(path), separate_channels=True)
         planes: dict[str, np.ndarray] = {}
         header: dict = {}
         for part in f.parts:
@@ -67,6 +100,10 @@ def read_exr(path) -> tuple[dict[str, np.ndarray], dict]:
         raise
     except Exception as e:  # OpenEXR raises plain RuntimeError/ValueError for broken files
         raise UserError(f"{path}: not a readable OpenEXR file ({type(e).__name__}: {e})") from None
+    cut = sorted(set(declared) - set(planes))  # a file cut short: OpenEXR drops the part with a printed warning
+    if cut:
+        raise UserError(f"{path}: truncated or corrupt OpenEXR file: the pixels of {len(cut)} channel(s) "
+                        f"({', '.join(cut[:3])}{', ...' if len(cut) > 3 else ''}) could not be read")
     return planes, header
 
 
@@ -92,7 +129,8 @@ def write_sample(path, groups: dict[str, np.ndarray], half: bool = True, header:
 def read_sample(path, groups: tuple[str, ...] | None = None, strict: bool = True) -> dict[str, np.ndarray]:
     """Read ``groups`` (default: all of ``SAMPLE_GROUPS``) from a sample as ``{group: HxWxC float32}``.
 
-    With ``strict``, a missing or unexpected channel is a UserError naming the file and the channel.
+    A missing channel is a UserError naming the file and the channel; with ``strict``, so is a channel that is
+    in no group of the channel spec (a foreign or newer file), whichever ``groups`` are asked for.
     """
     path = Path(path)
     planes, _ = read_exr(path)
@@ -100,7 +138,7 @@ def read_sample(path, groups: tuple[str, ...] | None = None, strict: bool = True
     missing = [c for g in want for c in ch.GROUPS[g].channels if c not in planes]
     if missing:
         raise UserError(f"{path}: missing channel(s) {', '.join(missing)}")
-    if strict and groups is None:
+    if strict:
         known = {c for g in ch.GROUPS.values() for c in g.channels}
         extra = sorted(set(planes) - known)
         if extra:
