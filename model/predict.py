@@ -47,6 +47,10 @@ def predict_file(model, input_path, out, png=None, threads=None, tile=None) -> d
     pred = load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE)
     input_path = Path(input_path)
     planes, _ = exrio.read_exr(input_path)
+    lacking = [c for g in pred.required for c in ch.GROUPS[g].channels if c not in planes]
+    if lacking:
+        raise UserError(f"{input_path}: missing channel(s) {', '.join(lacking)}, which model {model} "
+                        f"(inputs {ch.format_spec(pred.spec)}) needs")
     present = tuple(g for g, grp in ch.GROUPS.items() if all(c in planes for c in grp.channels))
     groups = exrio.read_sample(input_path, present, strict=False)
     t = time.perf_counter()
