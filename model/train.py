@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 import sys
 import time
 from dataclasses import asdict, dataclass, field
@@ -165,8 +166,18 @@ class Trainer:
         self.last = checkpoint.last_path(self.out)
 
     # ---- state -------------------------------------------------------------------------------------
+    def _remove_stale_temps(self):
+        """Delete the temporary files a killed run left beside this run's outputs (checkpoint.save's
+        ``.NAME.PID.tmp``, curve_png's ``.NAME.tmp.png``): this run owns those names (issue 7, case 9)."""
+        names = "|".join(re.escape(p.name) for p in (self.out, self.last, checkpoint.curve_path(self.out)))
+        if self.out.parent.is_dir():
+            for f in self.out.parent.iterdir():
+                if re.fullmatch(rf"\.({names})\.(\d+\.tmp|tmp\.png)", f.name):
+                    f.unlink(missing_ok=True)
+
     def _setup(self):
         cfg = self.cfg
+        self._remove_stale_temps()
         resume = None
         if cfg.resume:
             if self.last.is_file():
