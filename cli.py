@@ -29,12 +29,9 @@ PACKAGE = "ssgi"
 # package-relative modules that define register_cli(subparsers); order is the order in --help
 COMMAND_MODULES = [
     "ssgi_addon.info_cli",
-    "ssgi_addon.room",
-    "ssgi_addon.bake",
     "ssgi_addon.demo",
     "model.train_cli",
     "ssgi_addon.render_cli",
-    "ssgi_addon.fit_cli",
     "ssgi_addon.report_cli",
 ]
 
