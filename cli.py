@@ -32,6 +32,7 @@ COMMAND_MODULES = [
     "ssgi_addon.demo",
     "model.train_cli",
     "ssgi_addon.render_cli",
+    "ssgi_addon.fit_cli",
     "ssgi_addon.report_cli",
 ]
 

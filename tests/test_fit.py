@@ -1,0 +1,230 @@
+"""Fit to Scene (issue 8): model/fit.py (bpy-free), cli.py fit, the SSGI node rendering a fitted model, the
+Fit to Scene operator. Budgets are seconds; the views are tiny."""
+from __future__ import annotations
+
+import json
+import math
+import random
+
+import numpy as np
+import pytest
+import torch
+
+from ssgi.model import channels as ch
+from ssgi.model import checkpoint, fit, network, synthetic
+from ssgi.model.errors import UserError
+from ssgi.model.train import TrainConfig, evaluate
+
+from .conftest import clean, run_cli, run_py
+
+ABLATE_ALL = 1000.0  # a drop tolerance that drops every group the head does not need
+
+
+@pytest.fixture(scope="module")
+def views(tmp_path_factory):
+    """One synthetic 'scene' seen from 10 view points (camera 0..9), 48x32."""
+    return synthetic.make_dataset(tmp_path_factory.mktemp("views"), scenes=1, per_scene=10, w=48, h=32, seed=3)
+
+
+@pytest.fixture(scope="module")
+def generic(tmp_path_factory):
+    torch.manual_seed(0)
+    net = network.build(network.arch_for("unet_s"))
+    path = tmp_path_factory.mktemp("generic") / "generic.pt"
+    ck = checkpoint.make(net, "network", command="tests/test_fit.py")
+    ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}
+    checkpoint.save(path, ck)
+    return path
+
+
+KEYS = [f"{i:06d}" for i in range(10)]
+TRAIN, VAL, TEST = KEYS[:6], KEYS[6:8], KEYS[8:]
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory, views, generic):
+    out = tmp_path_factory.mktemp("fit") / "scene.pt"
+    events = []
+    cfg = fit.FitConfig(data=str(views), out=str(out), train_keys=TRAIN, val_keys=VAL, test_keys=TEST, minutes=0.45,
+                        init=str(generic), threads=1, crop=32, batch=8, drop_tol=ABLATE_ALL, min_run_s=1.0,
+                        bench_size="96x64", bench_repeats=2, command="test")
+    res = fit.fit(cfg, log=lambda m: None, callback=events.append)
+    return dict(out=out, res=res, events=events, cfg=cfg)
+
+
+# ------------------------------------------------------------------------------------------ bpy-free parts
+
+@pytest.mark.parametrize("variant", ["unet_s", "lean", "fssgi"])
+def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant):
+    torch.manual_seed(1)
+    spec = ch.INPUT_GROUPS
+    net = network.build(network.arch_for(variant, spec)).eval()
+    for p in net.parameters():  # no zero weights anywhere: a wrong column would show
+        torch.nn.init.normal_(p, std=0.2)
+    x = torch.rand(1, ch.input_channels(spec), 20, 28)
+    for drop in (("ao",), ("depth", "normal"), ("lit", "ao", "normal")):
+        new_spec = tuple(g for g in spec if g not in drop)
+        small = fit.drop_inputs(net, new_spec).eval()
+        assert tuple(small.arch["inputs"]) == new_spec
+        lay = fit.normalize.layout(spec)
+        kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
+        zeroed = x.clone()
+        for g in drop:
+            zeroed[:, lay[g]] = 0
+        with torch.inference_mode():
+            np.testing.assert_allclose(small(x[:, kept]).numpy(), net(zeroed).numpy(), rtol=1e-4, atol=1e-5)
+            assert not torch.allclose(net(x), net(zeroed))  # the dropped inputs did matter before
+    with pytest.raises(UserError, match="not a sub-sequence"):
+        fit.drop_inputs(net, ("direct", "albedo"))
+
+
+def test_droppable_respects_the_head():
+    assert fit.droppable(ch.INPUT_GROUPS, "residual") == ["ao", "depth", "normal", "lit"]
+    assert fit.droppable(ch.INPUT_GROUPS, "demod") == ["ao", "depth", "normal", "lit", "direct"]
+    assert fit.droppable(("albedo", "direct"), "residual") == []
+
+
+def test_split_views_holds_out_whole_cameras():
+    by_cam = {"Camera": ["000000", "000003"], "v1": ["000001", "000004"], "v2": ["000002"], "v3": ["000005"]}
+    tr, va, te = fit.split_views(by_cam, test_cameras=["v2"], val_cameras=["v1", "v3"])
+    assert tr == ["000000", "000003"] and va == ["000001", "000004", "000005"] and te == ["000002"]
+
+
+def test_config_refuses_overlapping_or_empty_splits(views):
+    with pytest.raises(UserError, match="disjoint"):
+        fit.FitConfig(data=str(views), out="m.pt", train_keys=TRAIN, val_keys=TRAIN[:1]).check()
+    with pytest.raises(UserError, match="held-out validation"):
+        fit.FitConfig(data=str(views), out="m.pt", train_keys=TRAIN, val_keys=[]).check()
+    with pytest.raises(UserError, match="minutes"):
+        fit.FitConfig(data=str(views), out="m.pt", train_keys=TRAIN, val_keys=VAL, minutes=0).check()
+
+
+def test_fit_trainer_uses_the_given_views_and_starting_weights(views, generic, tmp_path):
+    v = fit.Views(views, KEYS)
+    ds = v.dataset(ch.DEFAULT_INPUTS, TRAIN, VAL)
+    ck = checkpoint.load(generic)
+    cfg = TrainConfig(data=str(views), out=str(tmp_path / "t.pt"), variant="unet_s", inputs=ch.format_spec(ch.DEFAULT_INPUTS),
+                      epochs=1, crop=32, batch=4, command="test")
+    tr = fit.FitTrainer(cfg, ds, init_state=ck["state_dict"], log=lambda m: None)
+    tr._setup()
+    assert [s.key for s in tr.train_set] == TRAIN and [s.key for s in tr.val_set] == VAL
+    for k, w in ck["state_dict"].items():
+        assert torch.equal(tr.net.state_dict()[k], w), k
+
+
+def test_views_build_inputs_as_the_predictor_does(views):
+    """A spec that keeps depth but drops normals: the input is what the Predictor computes from exactly the
+    groups the spec needs (depth's normalisation then has no normals to find the background)."""
+    from ssgi.model import exrio, normalize
+    spec = ("albedo", "depth", "direct")
+    v = fit.Views(views, KEYS[:1])
+    s = v.samples(spec, KEYS[:1], "x")[0]
+    g = exrio.read_sample(views / "000000.exr")
+    want, _ = normalize.to_inputs({k: g[k] for k in ch.required_groups(spec)}, spec)
+    np.testing.assert_array_equal(s.x.permute(1, 2, 0).numpy(), want)
+
+
+# ------------------------------------------------------------------------------------------ one whole fit
+
+def test_fit_writes_a_checkpoint_with_only_the_kept_inputs(fitted):
+    ck = checkpoint.load(fitted["out"])
+    # every group the residual head does not need was dropped (tolerance ABLATE_ALL)
+    assert tuple(ck["inputs"]) == ("albedo", "direct") == tuple(ck["arch"]["inputs"])
+    pred = checkpoint.load_predictor(fitted["out"])
+    assert pred.required == ("albedo", "direct")
+    assert fitted["res"]["passes"] == ["use_pass_diffuse_color", "use_pass_diffuse_direct"]
+    # the report is in the checkpoint and beside it, and they agree
+    rep = ck["fit"]
+    jpath, mpath = fit.report_paths(fitted["out"])
+    assert json.loads(jpath.read_text())["final"] == rep["final"]
+    md = mpath.read_text()
+    assert "## Size search" in md and "## Inputs" in md and rep["verdict"] in md
+    assert rep["views"]["val"] == VAL and rep["views"]["test"] == TEST
+
+
+def test_fit_report_numbers_are_the_models_own(fitted, views):
+    """The test PSNR in the report is what the saved checkpoint scores on the test views, recomputed here;
+    the generic model's too."""
+    ck = checkpoint.load(fitted["out"])
+    rep = ck["fit"]
+    v = fit.Views(views, KEYS)
+    net = checkpoint.build_net(ck)
+    got = evaluate(net, v.samples(tuple(ck["inputs"]), TEST, "t"))["val_psnr"]
+    assert got == pytest.approx(rep["final"]["test"]["psnr"], abs=1e-6)
+    gck = checkpoint.load(fitted["cfg"].init)
+    gnet = checkpoint.build_net(gck)
+    gv = evaluate(gnet, v.samples(tuple(gck["inputs"]), TEST, "t"))["val_psnr"]
+    assert gv == pytest.approx(rep["generic"]["test"]["psnr"], abs=1e-6)
+    assert ("does not gain" in rep["verdict"]) == (got - gv < fit.TARGET_GAIN_DB or
+                                                   rep["final"]["ms_big"] > 0.5 * rep["generic"]["ms_big"])
+    assert f"{got:.2f} dB" in rep["verdict"] and f"{gv:.2f} dB" in rep["verdict"]
+
+
+def test_fit_size_search_is_smallest_first_and_keeps_the_first_to_reach_the_target(fitted):
+    rep = checkpoint.load(fitted["out"])["fit"]
+    size = [r for r in rep["rows"] if r["phase"] == "size"]
+    macs = [r["macs_per_px"] for r in size]
+    assert macs == sorted(macs) and len(size) == len(fit.LADDER) + 1  # the ladder and the generic fine-tune
+    assert any(r["start"] == "fine-tune" for r in size)
+    tried = [r for r in size if r.get("val_psnr") is not None]
+    assert tried, size
+    kept = [r for r in size if r["decision"] == "kept"]
+    assert len(kept) == 1
+    t = rep["target_psnr"]
+    assert t == pytest.approx(rep["generic"]["val"]["psnr"] + fit.TARGET_GAIN_DB)
+    if rep["target_reached"]:
+        first = next(r for r in tried if r["val_psnr"] >= t)
+        assert kept[0] is first or kept[0]["name"] == first["name"]
+        assert all(r.get("val_psnr") is None for r in size[size.index(kept[0]) + 1:])  # larger ones not trained
+    else:
+        assert kept[0]["val_psnr"] == max(r["val_psnr"] for r in tried)
+    final = rep["final"]
+    assert final["arch"] == kept[0]["arch"]
+
+
+def test_fit_ablation_decisions_follow_the_numbers(fitted):
+    rep = checkpoint.load(fitted["out"])["fit"]
+    rows = [r for r in rep["rows"] if r["phase"] == "inputs"]
+    control = next(r for r in rows if r["decision"] == "control")
+    assert control["val_psnr"] == pytest.approx(rep["control_val_psnr"])
+    singles = [r for r in rows if r["group"] in ("ao", "depth", "normal", "lit")]
+    assert sorted(r["group"] for r in singles) == ["ao", "depth", "lit", "normal"]
+    for r in singles:
+        assert r["delta_db"] == pytest.approx(control["val_psnr"] - r["val_psnr"], abs=1e-9)
+        assert r["decision"] == "dropped"  # tolerance ABLATE_ALL
+        assert "normal" not in r["spec"].split(",") or r["group"] != "normal"
+    assert [r["decision"] for r in rows if r["group"] in ("albedo", "direct")] == ["kept (the residual head needs it)"] * 2
+
+
+def test_fit_progress_reports_phases_in_order(fitted):
+    phases = [e["phase"] for e in fitted["events"]]
+    seen = list(dict.fromkeys(phases))
+    assert seen == ["size", "inputs", "polish", "done"] or seen == ["size", "inputs", "done"], seen
+    ps = [e["progress"] for e in fitted["events"]]
+    assert all(0 <= p <= 1 for p in ps) and ps == sorted(ps)
+
+
+def test_fit_cancel_writes_nothing(views, tmp_path):
+    out = tmp_path / "c.pt"
+    calls = {"n": 0}
+
+    def stop():
+        calls["n"] += 1
+        return calls["n"] > 3
+
+    cfg = fit.FitConfig(data=str(views), out=str(out), train_keys=TRAIN, val_keys=VAL, minutes=1.0, threads=1,
+                        crop=32, batch=8, min_run_s=1.0, command="test")
+    res = fit.fit(cfg, log=lambda m: None, should_stop=stop)
+    assert res["status"] == "cancelled" and not out.exists() and not fit.report_paths(out)[0].exists()
+
+
+def test_view_counts_and_roles():
+    from ssgi.ssgi_addon import fit as sfit
+    assert sfit.view_counts(24, 1, 1) == (1, 23)
+    nf, nj = sfit.view_counts(24, 48, 1)
+    assert nf == 3 and (1 + nj) * nf >= 24
+    assert sfit.view_counts(4, 1, 2) == (1, 3)  # at least 3 jittered cameras (val, test, train)
+    with pytest.raises(UserError, match="at least 4 views"):
+        sfit.view_counts(3, 1, 1)
+    r = sfit.roles(10, random.Random(0))
+    assert sorted(r) == ["test"] * 2 + ["train"] * 6 + ["val"] * 2
