@@ -280,3 +280,19 @@ def test_predictor_1921x1081_keeps_shape_and_tiles_match():
     tiled = pred.predict(g)
     assert tiled.shape == (1081, 1921, 3) and np.isfinite(tiled).all()
     np.testing.assert_allclose(pred.predict(g, tile=None), tiled, rtol=1e-4, atol=1e-5)
+
+
+def test_inputs_are_configurable_and_heads_name_what_they_need():
+    spec = ("albedo", "normal", "depth", "direct", "ao")
+    net = _net("unet_s", spec=spec)
+    assert network.in_channels(net) == 11 and tuple(net.arch["inputs"]) == spec
+    pred = checkpoint.Predictor(net, checkpoint.make(net, "network"))
+    assert pred.required == spec
+    assert pred.predict(synthetic_groups(9, 7)).shape == (7, 9, 3)
+    with pytest.raises(UserError, match=r"head 'residual' needs input group\(s\) albedo, direct"):
+        network.build(network.arch_for("unet", ("normal", "depth")))
+    with pytest.raises(UserError, match="unknown variant 'nope'"):
+        network.arch_for("nope")
+    with pytest.raises(UserError, match="has no setting 'depth'"):
+        network.arch_for("unet", depth=3)
+    assert network.count_params(_net("fssgi", spec=("normal", "depth"))) < 238_339  # the log head needs nothing
