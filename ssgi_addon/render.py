@@ -315,7 +315,8 @@ class RenderSession:
                 f"model {self.model_path} (inputs {ch.format_spec(self.spec)}) needs pass(es) "
                 f"{', '.join(pass_label(f) for f in miss)}, which view layer {scene.view_layers[0].name!r} of scene "
                 f"{scene.name!r} does not render: run 'Set up SSGI' or enable them in View Layer > Passes")
-        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "eevee")))
+        # normal too: it marks the pixels where nothing was hit for the depth normalisation, as in training
+        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal", "eevee")))
         self.out = out
         self.write = write
         self.samples = int(samples) if samples else int(scene.eevee.taa_render_samples)
@@ -345,7 +346,7 @@ class RenderSession:
                 save_multilayer(scene, exr)
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
-            pred = self.predictor.predict({g: groups[g] for g in ch.required_groups(self.spec)})
+            pred = self.predictor.predict({g: groups[g] for g in ch.required_groups(self.spec) + ("normal",)})
             rgb = compose(pred, groups, scene.camera.data.clip_end)
             info["t_predict"] = time.perf_counter() - t0
             info["rss_mb_predict"] = peak_rss_mb()
