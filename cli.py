@@ -29,6 +29,8 @@ PACKAGE = "ssgi"
 # package-relative modules that define register_cli(subparsers); order is the order in --help
 COMMAND_MODULES = [
     "ssgi_addon.info_cli",
+    "ssgi_addon.room",
+    "ssgi_addon.bake",
     "ssgi_addon.demo",
     "model.train_cli",
     "ssgi_addon.render_cli",

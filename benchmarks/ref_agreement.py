@@ -1,0 +1,55 @@
+"""Benchmark: self-agreement of the Cycles reference (issue 3), by samples and denoising.
+
+Two references of the same room with different Cycles seeds; PSNR between them by the seed's convention
+(linear RGB clamped to [0,1], MSE pooled over the image), and seconds per reference.
+
+    .venv/bin/python benchmarks/ref_agreement.py --rooms 0 1 2 --spp 8 16 32 --size 240x135
+"""
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import cli  # noqa: E402
+
+cli.load_package()
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ssgi.model import metrics  # noqa: E402
+from ssgi.model.cliargs import parse_size  # noqa: E402
+from ssgi.ssgi_addon import passes, room  # noqa: E402
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])
+ap.add_argument("--spp", type=int, nargs="+", default=[8, 16, 32])
+ap.add_argument("--size", type=parse_size, default=(240, 135))
+ap.add_argument("--raw", action="store_true", help="also without OIDN")
+a = ap.parse_args()
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+rows = []
+for r in a.rooms:
+    room.build_room(r, scene)
+    passes.set_resolution(scene, *a.size)
+    for spp in a.spp:
+        for dn in ([True, False] if a.raw else [True]):
+            imgs, ts = [], []
+            for seed in (1, 2):
+                t = time.perf_counter()
+                imgs.append(passes.render_cycles(scene, spp, seed=seed, denoise=dn)["ref"])
+                ts.append(time.perf_counter() - t)
+            p = metrics.psnr(imgs[0], imgs[1])
+            row = dict(room=r, spp=spp, denoise=dn, psnr=round(p, 2), seconds=round(min(ts), 3),
+                       mean=round(float(np.mean(imgs[0])), 4))
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+print("summary (min PSNR over rooms, mean seconds):", file=sys.stderr)
+for spp in a.spp:
+    for dn in ([True, False] if a.raw else [True]):
+        sel = [x for x in rows if x["spp"] == spp and x["denoise"] == dn]
+        print(f"  spp={spp:4d} denoise={dn}: min {min(x['psnr'] for x in sel):.2f} dB, "
+              f"mean {np.mean([x['psnr'] for x in sel]):.2f} dB, {np.mean([x['seconds'] for x in sel]):.2f} s",
+              file=sys.stderr)

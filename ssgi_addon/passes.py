@@ -1,0 +1,268 @@
+"""Rendering passes into numpy: EEVEE's direct-only G-buffer, and Cycles (reference or diffuse direct).
+
+Contract (used by the baker and the compositor node):
+
+- ``configure_gbuffer(scene, groups)`` enables the view-layer passes that ``groups`` need and sets EEVEE up for
+  direct light only (no ray tracing, no fast GI, light threshold 0, lights' custom distance large).
+- ``render_gbuffer(scene, groups=None) -> {group: HxWxC float32}``: renders EEVEE with a black world, light
+  probes hidden and hard lights (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their
+  aspect), restores all of that afterwards, and returns the groups top row first with normals in CAMERA space.
+- ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
+  or with hard lights (to check EEVEE's Diffuse Direct pass against Cycles').
+
+Pixels are read by saving the render result as a multilayer EXR (the only way that works in background mode,
+see docs/bake.md) and reading every part with OpenEXR.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+import time
+
+import bpy
+import numpy as np
+
+from ..model import channels as ch
+from ..model.errors import UserError
+
+# group -> (Blender render pass name, channel suffixes in the EXR part)
+PASS_NAMES: dict[str, str] = {
+    "albedo": "Diffuse Color",
+    "normal": "Normal",
+    "depth": "Depth",
+    "direct": "Diffuse Direct",
+    "ao": "Ambient Occlusion",
+    "eevee": "Combined",
+    "ref": "Combined",
+}
+EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee")
+AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
+CUTOFF_DISTANCE = 1.0e4
+DIFFUSE_BOUNCES = 8
+
+
+def _check_camera(scene) -> None:
+    if scene.camera is None:
+        raise UserError(f"scene {scene.name!r} has no camera")
+
+
+def configure_gbuffer(scene, groups=None, samples: int = 1) -> None:
+    """Enable the passes ``groups`` need and EEVEE's direct-only settings (persistent settings of ``scene``)."""
+    groups = tuple(groups) if groups is not None else EEVEE_GROUPS
+    scene.render.engine = "BLENDER_EEVEE"
+    ee = scene.eevee
+    ee.taa_render_samples = int(samples)
+    ee.use_raytracing = False
+    ee.use_fast_gi = False
+    ee.light_threshold = 0.0
+    ee.use_shadows = True
+    vl = scene.view_layers[0]
+    for g in groups:
+        flag = ch.GROUPS[g].blender_pass
+        if flag:
+            setattr(vl, flag, True)
+    for li in {o.data for o in scene.objects if o.type == "LIGHT"}:
+        li.use_custom_distance = True
+        li.cutoff_distance = CUTOFF_DISTANCE
+
+
+@contextlib.contextmanager
+def hard_lights(scene):
+    """Point/spot radius 0, sun angle 0, area lights ~1 cm keeping their aspect; restored on exit."""
+    saved = []
+    lights: dict = {}
+    for o in scene.objects:
+        if o.type == "LIGHT":
+            lights.setdefault(o.data, []).append(max(abs(s) for s in o.matrix_world.to_scale()))
+    try:
+        for li, scales in lights.items():
+            if li.type in ("POINT", "SPOT"):
+                saved.append((li, "shadow_soft_size", li.shadow_soft_size))
+                li.shadow_soft_size = 0.0
+            elif li.type == "SUN":
+                saved.append((li, "angle", li.angle))
+                li.angle = 0.0
+            elif li.type == "AREA":
+                saved.append((li, "size", li.size))
+                saved.append((li, "size_y", li.size_y))
+                big = max(li.size, li.size_y if li.shape in ("RECTANGLE", "ELLIPSE") else li.size, 1e-9)
+                f = AREA_LIGHT_SIZE / (big * max(scales))
+                li.size, li.size_y = li.size * f, li.size_y * f
+        yield
+    finally:
+        for li, attr, v in reversed(saved):
+            setattr(li, attr, v)
+
+
+@contextlib.contextmanager
+def _direct_only_world(scene):
+    """A black world and hidden light probes (EEVEE's Diffuse Direct includes world light otherwise)."""
+    old_world = scene.world
+    black = bpy.data.worlds.new("ssgi.black_world")
+    black.color = (0.0, 0.0, 0.0)
+    if black.node_tree is not None:
+        for n in black.node_tree.nodes:
+            if n.bl_idname == "ShaderNodeBackground":
+                n.inputs["Strength"].default_value = 0.0
+    probes = [o for o in scene.objects if o.type == "LIGHT_PROBE" and not o.hide_render]
+    try:
+        scene.world = black
+        for o in probes:
+            o.hide_render = True
+        yield
+    finally:
+        scene.world = old_world
+        bpy.data.worlds.remove(black)
+        for o in probes:
+            o.hide_render = False
+
+
+@contextlib.contextmanager
+def _exr_output(scene):
+    r = scene.render
+    ims = r.image_settings
+    saved = (ims.media_type, ims.file_format, ims.color_depth, ims.exr_codec, r.use_compositing, r.use_sequencer)
+    try:
+        ims.media_type = "MULTI_LAYER_IMAGE"
+        ims.file_format = "OPEN_EXR_MULTILAYER"
+        ims.color_depth = "32"
+        ims.exr_codec = "ZIP"
+        r.use_compositing = False
+        r.use_sequencer = False
+        yield
+    finally:
+        ims.media_type = saved[0]
+        with contextlib.suppress(TypeError):
+            ims.file_format = saved[1]
+        with contextlib.suppress(TypeError):
+            ims.color_depth = saved[2]
+        with contextlib.suppress(TypeError):
+            ims.exr_codec = saved[3]
+        r.use_compositing, r.use_sequencer = saved[4], saved[5]
+
+
+def read_multilayer(path) -> dict[str, dict[str, np.ndarray]]:
+    """{pass name: {channel: HxW float32}} of a Blender multilayer (multi-part) EXR, top row first."""
+    import OpenEXR
+
+    out: dict[str, dict[str, np.ndarray]] = {}
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        for part in f.parts:
+            pname = part.name() if callable(part.name) else part.name
+            for name, c in part.channels.items():
+                # part "ViewLayer.Diffuse Direct" with channel "R" (or one part with "ViewLayer.Diffuse Direct.R")
+                full = f"{pname}.{name}" if pname and not name.startswith(f"{pname}.") else name
+                layer_pass, _, comp = full.rpartition(".")
+                pass_name = layer_pass.split(".", 1)[1] if "." in layer_pass else layer_pass
+                out.setdefault(pass_name, {})[comp] = np.asarray(c.pixels, dtype=np.float32)
+    return out
+
+
+def _render(scene) -> dict[str, dict[str, np.ndarray]]:
+    _check_camera(scene)
+    fd, path = tempfile.mkstemp(prefix="ssgi-render-", suffix=".exr")
+    os.close(fd)
+    try:
+        with _exr_output(scene):
+            vl = scene.view_layers[0]
+            bpy.ops.render.render(scene=scene.name, layer=vl.name)
+            img = bpy.data.images.get("Render Result")
+            if img is None:
+                raise RuntimeError("render produced no Render Result")
+            img.save_render(path, scene=scene)
+        return read_multilayer(path)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+
+
+def _group(passes: dict, group: str) -> np.ndarray:
+    name = PASS_NAMES[group]
+    if name not in passes:
+        raise RuntimeError(f"render has no {name!r} pass for group {group!r}; passes: {sorted(passes)}")
+    p = passes[name]
+    comps = ch.GROUPS[group].components
+    if group == "ao" and "Y" not in p:  # AO is stored as RGB grey; keep one channel
+        comps = ("R",)
+    if group == "depth" and "Z" not in p:
+        comps = ("V",) if "V" in p else (sorted(p)[0],)
+    return np.stack([p[c] for c in comps], axis=-1).astype(np.float32)
+
+
+def camera_rotation(scene) -> np.ndarray:
+    """3x3 rotation of the scene camera (columns: camera X, Y, Z axes in world space)."""
+    m = scene.camera.matrix_world.to_3x3().normalized()
+    return np.array([[m[i][j] for j in range(3)] for i in range(3)], dtype=np.float64)
+
+
+def world_to_camera_normals(n: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """World-space normals HxWx3 to camera space (+X right, +Y up, +Z towards the camera); zeros stay zero."""
+    return np.einsum("hwi,ij->hwj", n.astype(np.float64), rot).astype(np.float32)
+
+
+def render_gbuffer(scene, groups=None, samples: int = 1) -> dict[str, np.ndarray]:
+    """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space."""
+    groups = tuple(groups) if groups is not None else EEVEE_GROUPS
+    for g in groups:
+        if g not in EEVEE_GROUPS:
+            raise ValueError(f"group {g!r} is not rendered by EEVEE; EEVEE groups: {EEVEE_GROUPS}")
+    _check_camera(scene)
+    configure_gbuffer(scene, groups, samples=samples)
+    with _direct_only_world(scene), hard_lights(scene):
+        passes = _render(scene)
+    out = {g: _group(passes, g) for g in groups}
+    if "normal" in out:
+        out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
+    return out
+
+
+def configure_cycles(scene, samples: int, seed: int = 0, denoise: bool = False, threads: int = 0) -> None:
+    c = scene.cycles
+    scene.render.engine = "CYCLES"
+    c.device = "CPU"
+    c.samples = int(samples)
+    c.use_adaptive_sampling = False
+    c.seed = int(seed)
+    c.use_animated_seed = False
+    c.diffuse_bounces = max(DIFFUSE_BOUNCES, c.diffuse_bounces)
+    c.max_bounces = max(c.max_bounces, c.diffuse_bounces)
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.use_denoising = bool(denoise)
+    if denoise:
+        c.denoiser = "OPENIMAGEDENOISE"
+        c.denoising_input_passes = "RGB_ALBEDO_NORMAL"
+    scene.render.threads_mode = "FIXED" if threads else "AUTO"
+    if threads:
+        scene.render.threads = threads
+
+
+def render_cycles(scene, samples: int, seed: int = 0, denoise: bool = False, hard: bool = False,
+                  groups=("ref",), threads: int = 0) -> dict[str, np.ndarray]:
+    """Render Cycles. ``groups`` may hold "ref" (Combined RGB) and "direct" (Diffuse Direct). With ``hard``,
+    the lights are shrunk as for EEVEE and the world is black (to compare with EEVEE's Diffuse Direct)."""
+    _check_camera(scene)
+    configure_cycles(scene, samples, seed, denoise, threads)
+    vl = scene.view_layers[0]
+    if "direct" in groups:
+        vl.use_pass_diffuse_direct = True
+    ctx = contextlib.ExitStack()
+    with ctx:
+        if hard:
+            ctx.enter_context(_direct_only_world(scene))
+            ctx.enter_context(hard_lights(scene))
+        passes = _render(scene)
+    return {g: _group(passes, g)[..., :3] for g in groups}
+
+
+def set_resolution(scene, width: int, height: int) -> None:
+    scene.render.resolution_x, scene.render.resolution_y = int(width), int(height)
+    scene.render.resolution_percentage = 100
+    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
+
+
+def timed(fn, *a, **kw):
+    t = time.perf_counter()
+    r = fn(*a, **kw)
+    return r, time.perf_counter() - t
