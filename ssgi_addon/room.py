@@ -271,8 +271,9 @@ def describe_scene(scene) -> dict:
     """Names, transforms, colours and light settings of ``scene``'s room objects (for tests and manifests)."""
     out = {}
     for o in sorted(scene.objects, key=lambda o: o.name):
-        d = dict(type=o.type, location=tuple(round(v, 5) for v in o.matrix_world.translation),
-                 matrix=[round(v, 5) for row in o.matrix_world for v in row])
+        # matrix_basis, not matrix_world: the latter is stale until the depsgraph is evaluated
+        d = dict(type=o.type, location=tuple(round(v, 5) for v in o.location),
+                 matrix=[round(v, 5) for row in o.matrix_basis for v in row])
         if o.type == "MESH" and o.data.materials:
             m = o.data.materials[0]
             p = next(n for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
@@ -283,6 +284,8 @@ def describe_scene(scene) -> dict:
                      radius=round(li.shadow_soft_size, 5))
             if li.type == "AREA":
                 d.update(shape=li.shape, size=round(li.size, 5), size_y=round(li.size_y, 5))
+            if li.type == "SPOT":
+                d.update(spot_size=round(li.spot_size, 5), spot_blend=round(li.spot_blend, 5))
         if o.type == "CAMERA":
             d["lens"] = round(o.data.lens, 5)
         out[o.name] = d
@@ -293,6 +296,12 @@ def describe_scene(scene) -> dict:
 
 
 def run(args) -> dict:
+    from .render_cli import stdout_to_stderr
+    with stdout_to_stderr():  # Blender prints "Info: Saved as ..." on stdout; stdout is for --json
+        return _run(args)
+
+
+def _run(args) -> dict:
     import sys
 
     from ..model.errors import UserError
