@@ -30,8 +30,9 @@ Method (one time budget, ``minutes``, shared by all phases; a run stops early wh
    both is measured (``bench.time_predictor`` at the views' size). The table of every run, the decisions and
    the verdict go into the checkpoint (key ``fit``) and into ``MODEL.fit_report.json`` / ``.md`` beside it.
 
-Inputs are built the way the Predictor builds them at render time: from exactly the stored groups the spec
-needs (``normalize.to_inputs``), so a model that keeps depth but drops normals is trained on what it will see.
+Inputs are built the way the render path builds them (ssgi_addon/render.py): from the stored groups the spec
+needs plus the normals, which mark the no-geometry pixels for the depth normalisation even when the spec
+drops normals (``normalize.to_inputs``), so a model that keeps depth but drops normals sees what it will see.
 """
 from __future__ import annotations
 
@@ -149,7 +150,7 @@ class Views:
         out = []
         for k in self.keys(keys):
             g = self.raw[k]
-            x, rep = normalize.to_inputs({n: g[n] for n in ch.required_groups(spec)}, spec)
+            x, rep = normalize.to_inputs({n: g[n] for n in ch.required_groups(spec) + ("normal",)}, spec)
             y = np.ascontiguousarray(normalize.target(g))
             mask = normalize.geometry_mask(g["depth"], g["normal"])
             out.append(data.Sample(k, label, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
@@ -226,10 +227,13 @@ def droppable(spec, head: str) -> list[str]:
 
 # ---------------------------------------------------------------------------------------------- the driver
 
+REPORT_RESERVE = (0.05, 5.0)  # training ends this share of the budget + seconds early: scoring and timing follow
+
+
 class Budget:
     def __init__(self, minutes: float):
         self.t0 = time.perf_counter()
-        self.total = 60.0 * minutes
+        self.total = max(1.0, 60.0 * minutes - REPORT_RESERVE[0] * 60.0 * minutes - REPORT_RESERVE[1])
 
     @property
     def used(self) -> float:
@@ -341,8 +345,8 @@ class Fitter:
         ev = evaluate(net, samples)
         return dict(psnr=_f(ev["val_psnr"]), tm_psnr=_f(ev["val_tm_psnr"]), ssim=_f(ev["val_ssim"]))
 
-    def _ms(self, net, size=None) -> float:
-        return _f(_time_ms(net, size or self.views.size, self.cfg.bench_repeats))
+    def _ms(self, net, size=None, repeats=None) -> float:
+        return _f(_time_ms(net, size or self.views.size, repeats or self.cfg.bench_repeats))
 
     # -- the fit --------------------------------------------------------------------------------------
     def run(self) -> dict:
@@ -523,15 +527,15 @@ class Fitter:
         if cfg.bench_size:
             w, h = bench._parse_size(cfg.bench_size)
             big = (h, w)
-        ms_big = self._ms(net, big) if big else None
+        ms_big = self._ms(net, big, 2) if big else None
         if generic:  # time both again, alternating, so that both see the same load on the shared cores
-            generic["ms_big"] = self._ms(generic["net"], big) if big else None
+            generic["ms_big"] = self._ms(generic["net"], big, 2) if big else None
             for _ in range(2):
                 generic["ms"] = min(generic["ms"], self._ms(generic["net"]))
                 ms = min(ms, self._ms(net))
                 if big:
-                    generic["ms_big"] = min(generic["ms_big"], self._ms(generic["net"], big))
-                    ms_big = min(ms_big, self._ms(net, big))
+                    generic["ms_big"] = min(generic["ms_big"], self._ms(generic["net"], big, 2))
+                    ms_big = min(ms_big, self._ms(net, big, 2))
         final = dict(arch=_arch_label(net.arch), variant=net.arch["variant"], inputs=list(spec),
                      passes=list(ch.required_passes(spec)), params=network.count_params(net),
                      macs_per_px=_f(network.macs_per_pixel(net)), ms=ms, ms_big=ms_big, bench_size=cfg.bench_size,

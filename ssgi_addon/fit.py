@@ -111,7 +111,7 @@ def make_views(scene, views: int = 24, seed: int = 0) -> dict:
     avail = (f1 - f0 + 1) if anim else 1
     nf, n_jit = view_counts(views, avail, len(cams))
     if anim:
-        frames = sorted({int(round(f0 + (f1 - f0) * (i + 0.5) / nf)) for i in range(nf)})
+        frames = sorted({f0 + (f1 - f0) * i // max(1, nf - 1) for i in range(nf)}) if nf > 1 else [(f0 + f1) // 2]
     else:
         frames = [scene.frame_current]
     radius = JITTER_FRACTION * _bounds_diagonal(scene)

@@ -118,6 +118,8 @@ def _run(args) -> dict:
         cfg.ladder = _ladder(args.ladder)
     if args.crop:
         cfg.crop = args.crop
+    if args.min_run_seconds:
+        cfg.min_run_s = args.min_run_seconds
     res = mfit.fit(cfg, callback=progress)
     res.update(bake_minutes=bake_s / 60.0, total_minutes=(time.perf_counter() - t0) / 60.0, views=str(data_dir),
                init=init)
@@ -176,6 +178,8 @@ def register_cli(sub) -> None:
     p.add_argument("--plan", default=None, metavar="JSON", help="with --data: the views_plan.json of that bake")
     p.add_argument("--ladder", default=None, metavar="JSON", help='sizes to try, e.g. \'[["xs", "unet", {"widths": [8, 12, 16], "convs": [1, 1, 1]}]]\'')
     p.add_argument("--crop", type=cliargs.positive_int, default=None, help="training crop size (default 64)")
+    p.add_argument("--min-run-seconds", type=cliargs.positive_float, default=None, metavar="S",
+                   help="shortest training run worth starting (default 5; lower only for tiny test budgets)")
     p.add_argument("--threads", type=cliargs.positive_int, default=None, help="torch threads")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")

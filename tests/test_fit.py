@@ -54,11 +54,11 @@ def fitted(tmp_path_factory, views, generic):
 
 # ------------------------------------------------------------------------------------------ bpy-free parts
 
-@pytest.mark.parametrize("variant", ["unet_s", "lean", "fssgi"])
-def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant):
+@pytest.mark.parametrize("variant,over", [("unet_s", {}), ("lean", {}), ("fssgi", {"width": 16})])
+def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, over):
     torch.manual_seed(1)
     spec = ch.INPUT_GROUPS
-    net = network.build(network.arch_for(variant, spec)).eval()
+    net = network.build(network.arch_for(variant, spec, **over)).eval()
     for p in net.parameters():  # no zero weights anywhere: a wrong column would show
         torch.nn.init.normal_(p, std=0.2)
     x = torch.rand(1, ch.input_channels(spec), 20, 28)
@@ -112,16 +112,21 @@ def test_fit_trainer_uses_the_given_views_and_starting_weights(views, generic, t
         assert torch.equal(tr.net.state_dict()[k], w), k
 
 
-def test_views_build_inputs_as_the_predictor_does(views):
-    """A spec that keeps depth but drops normals: the input is what the Predictor computes from exactly the
-    groups the spec needs (depth's normalisation then has no normals to find the background)."""
+def test_views_build_inputs_as_the_render_path_does(views, tmp_path):
+    """A spec that keeps depth but drops normals: the input is what the node's render path computes (the
+    spec's groups plus the normals, which mark the background for the depth normalisation)."""
     from ssgi.model import exrio, normalize
     spec = ("albedo", "depth", "direct")
-    v = fit.Views(views, KEYS[:1])
-    s = v.samples(spec, KEYS[:1], "x")[0]
     g = exrio.read_sample(views / "000000.exr")
-    want, _ = normalize.to_inputs({k: g[k] for k in ch.required_groups(spec)}, spec)
+    g["normal"][:4] = 0  # nothing hit in the top rows: background for depth only when normals are used
+    d = synthetic.make_dataset(tmp_path / "v", scenes=1, per_scene=1, w=48, h=32, seed=3)
+    exrio.write_sample(d / "000000.exr", g)
+    g = exrio.read_sample(d / "000000.exr")  # as stored (half floats)
+    s = fit.Views(d, KEYS[:1]).samples(spec, KEYS[:1], "x")[0]
+    want, _ = normalize.to_inputs({k: g[k] for k in ("albedo", "depth", "direct", "normal")}, spec)
     np.testing.assert_array_equal(s.x.permute(1, 2, 0).numpy(), want)
+    without, _ = normalize.to_inputs({k: g[k] for k in ("albedo", "depth", "direct")}, spec)
+    assert not np.array_equal(want, without)
 
 
 # ------------------------------------------------------------------------------------------ one whole fit
@@ -228,3 +233,118 @@ def test_view_counts_and_roles():
         sfit.view_counts(3, 1, 1)
     r = sfit.roles(10, random.Random(0))
     assert sorted(r) == ["test"] * 2 + ["train"] * 6 + ["val"] * 2
+
+
+# ------------------------------------------------------------------------------------------ a real scene
+
+@pytest.fixture(scope="module")
+def scene_fit(tmp_path_factory, generic):
+    """A tiny room (tests/test_node.py's: camera moving over frames 1-3), fitted by `cli.py fit` with a budget
+    of seconds (the baker renders the views at 64x36, 4 Cycles samples), then rendered through the SSGI node
+    with the fitted model."""
+    import hashlib
+
+    from .test_node import SCENE
+    d = tmp_path_factory.mktemp("scene_fit")
+    blend = d / "room.blend"
+    run_py(SCENE + f'''
+sc = build_room({str(d / "unused_####")!r})
+bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
+''', timeout=120)
+    sha = hashlib.sha256(blend.read_bytes()).hexdigest()
+    model = d / "room_fit.pt"
+    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--views", "6", "--minutes", "1.5", "--size", "64x36",
+                "--ref-samples", "4", "--init", str(generic), "--drop-tol", str(ABLATE_ALL), "--min-run-seconds", "1",
+                "--threads", "1", "--crop", "32", "--json", timeout=420)
+    summary = json.loads(p.stdout)
+    r = run_cli("render", "--blend", str(blend), "--setup", "--model", str(model), "--out", str(d / "ssgi_####"),
+                "--frames", "2", "--save-passes", str(d / "passes"), "--json", timeout=300)
+    return dict(dir=d, blend=blend, sha=sha, model=model, summary=summary, stderr=clean(p.stderr),
+                render=json.loads(r.stdout))
+
+
+def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_fit):
+    from ssgi.model import data
+    s = scene_fit["summary"]
+    assert s["ok"] and s["status"] == "done"
+    work = scene_fit["dir"] / "room_fit.fit"
+    plan = json.loads((work / "views_plan.json").read_text())
+    assert plan["frames"] == [1, 3]  # the animation's ends: frames spread over frame_start..frame_end
+    cams = plan["cameras"]
+    assert cams["Camera"] == "train"
+    jit = {c: r for c, r in cams.items() if c != "Camera"}
+    assert len(jit) == 3 and sorted(jit.values()) == ["test", "train", "val"]
+    m = data.read_manifest(work / "views")
+    got = sorted((v["camera"], v["frame"]) for v in m["samples"].values())
+    assert got == sorted((c, f) for c in cams for f in (1, 3))  # every camera at every frame: 8 views
+    rep = checkpoint.load(scene_fit["model"])["fit"]
+    role = {k: cams[v["camera"]] for k, v in m["samples"].items()}
+    assert sorted(rep["views"]["val"]) == sorted(k for k, r in role.items() if r == "val")
+    assert sorted(rep["views"]["test"]) == sorted(k for k, r in role.items() if r == "test")
+    assert rep["total_minutes" if "total_minutes" in rep else "minutes"] is not None
+    import hashlib
+    assert hashlib.sha256(scene_fit["blend"].read_bytes()).hexdigest() == scene_fit["sha"]  # the artist's file
+
+
+def test_jittered_cameras_stay_near_the_scene_cameras(scene_fit):
+    """In views.blend: each jittered camera lies within the plan's radius of its scene camera's pose at some
+    frame, shares its lens, and looks within JITTER_DEG * sqrt(2) of the same direction."""
+    work = scene_fit["dir"] / "room_fit.fit"
+    out = scene_fit["dir"] / "cams.json"
+    run_py(f'''
+import bpy, json, math
+bpy.ops.wm.open_mainfile(filepath={str(work / "views.blend")!r})
+sc = bpy.context.scene
+cam = sc.objects["Camera"]
+poses = []
+for f in range(sc.frame_start, sc.frame_end + 1):
+    sc.frame_set(f)
+    m = cam.matrix_world.copy()
+    poses.append((list(m.to_translation()), list(m.to_3x3().col[2])))
+res = {{}}
+for o in sc.objects:
+    if o.name.startswith("ssgi.fit.view_"):
+        m = o.matrix_world
+        res[o.name] = dict(loc=list(m.to_translation()), z=list(m.to_3x3().col[2]), data=o.data.name,
+                           role=o["ssgi_fit_role"])
+json.dump(dict(poses=poses, views=res, lens=cam.data.name), open({str(out)!r}, "w"))
+''', timeout=120)
+    from ssgi.ssgi_addon import fit as sfit
+    info = json.loads(out.read_text())
+    plan = json.loads((work / "views_plan.json").read_text())
+    assert len(info["views"]) == 3
+    for name, v in info["views"].items():
+        assert v["data"] == info["lens"] and v["role"] == plan["cameras"][name]
+        dist = min(math.dist(v["loc"], p[0]) for p in info["poses"])
+        assert 0 < dist <= plan["radius"] + 1e-6
+        ang = min(math.degrees(math.acos(max(-1, min(1, sum(a * b for a, b in zip(v["z"], p[1])))))) for p in info["poses"])
+        assert ang <= sfit.JITTER_DEG * math.sqrt(2) + 1e-3
+
+
+def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(scene_fit):
+    from ssgi.model import exrio
+
+    from .test_node import expected_image, read_rgba
+    ck = checkpoint.load(scene_fit["model"])
+    assert tuple(ck["inputs"]) == ("albedo", "direct") and scene_fit["summary"]["inputs"] == ["albedo", "direct"]
+    assert scene_fit["render"]["inputs"] == "albedo,direct"
+    # the node rendered what the model needs (+ depth, normals and EEVEE's colour, which the render path
+    # always takes for the world pixels and the depth normalisation), and nothing else (no AO)
+    passes = scene_fit["dir"] / "passes" / "000002.exr"
+    planes, _ = exrio.read_exr(passes)
+    assert {c.split(".")[0] for c in planes} == {"albedo", "direct", "depth", "normal", "eevee"}
+    g = exrio.read_sample(passes, groups=("albedo", "direct", "depth", "normal", "eevee"))
+    want, world = expected_image(scene_fit["model"], g, 100.0)
+    got = read_rgba(scene_fit["dir"] / "ssgi_0002.exr")
+    np.testing.assert_allclose(got[..., :3], want, rtol=1e-5, atol=1e-6)
+    assert (~world).sum() > 100 and float(got[..., :3][~world].mean()) > 0
+
+
+def test_cli_fit_errors_name_the_fault(tmp_path):
+    p = run_cli("fit", "--blend", str(tmp_path / "nope.blend"), "--out", str(tmp_path / "m.pt"), check=False, timeout=120)
+    assert p.returncode == 2 and "nope.blend: no such .blend file" in p.stderr and "Traceback" not in p.stderr
+    p = run_cli("fit", "--blend", str(tmp_path / "x.blend"), "--out", str(tmp_path / "m.txt"), check=False, timeout=120)
+    assert p.returncode == 2 and "must end in .pt" in p.stderr
+    p = run_cli("fit", "--out", str(tmp_path / "m.pt"), check=False, timeout=120)
+    assert p.returncode == 2 and "--blend FILE" in p.stderr
+    assert not list(tmp_path.iterdir())
