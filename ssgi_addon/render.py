@@ -271,6 +271,8 @@ def output_path(scene, frame: int, out: str | None = None, single: bool = False)
 
 def atomic_save_render(scene, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
+    for stale in path.parent.glob(f".{path.stem}.*.tmp{path.suffix}"):  # a killed render's (issue 7, case 9)
+        stale.unlink(missing_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     try:
         bpy.data.images["Render Result"].save_render(str(tmp), scene=scene)
