@@ -148,8 +148,9 @@ def bpy_context_depsgraph():
 
 
 def default_size(scene, width: int = 240) -> tuple[int, int]:
-    """The views' size: ``width`` wide at the scene's aspect ratio."""
+    """The views' size: ``width`` wide (never wider than the scene renders) at the scene's aspect ratio."""
     r = scene.render
+    width = max(8, min(width, int(r.resolution_x * r.resolution_percentage / 100)))
     aspect = (r.resolution_y * r.pixel_aspect_y) / max(1e-9, r.resolution_x * r.pixel_aspect_x)
     return width, max(8, int(round(width * aspect)))
 
@@ -258,6 +259,7 @@ def start(scene, blend_copy: str, out: str, views: int, minutes: float, target_p
 
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                                 start_new_session=True)
+        job.proc = proc  # its own process group: Cancel ends it and the baker it starts
         lines: queue.Queue = queue.Queue()
         out_chunks: list[str] = []
         readers = [threading.Thread(target=lambda: out_chunks.append(proc.stdout.read()), daemon=True),
@@ -301,20 +303,43 @@ def start(scene, blend_copy: str, out: str, views: int, minutes: float, target_p
     return jobs.Job(JOB, work, on_done=done).start()
 
 
+def group_members(pgid: int) -> list[int]:
+    """Live (not zombie) processes of process group ``pgid`` (Linux /proc; empty elsewhere)."""
+    out = []
+    for d in Path("/proc").glob("[0-9]*"):
+        try:
+            stat = (d / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()  # state ppid pgrp ...
+        if len(fields) > 2 and int(fields[2]) == pgid and fields[0] != "Z":
+            out.append(int(d.name))
+    return out
+
+
 def _terminate(proc) -> None:
-    """End the fit's child process and its own children (the baker) by their process group."""
+    """End the fit's child process and everything it started (the baker) through its process group: SIGTERM,
+    then SIGKILL for what is still there after 10 s, until no member of the group is left."""
+    import time
+    pgid = proc.pid
     try:
-        os.killpg(proc.pid, signal.SIGTERM)
+        os.killpg(pgid, signal.SIGTERM)
     except (ProcessLookupError, PermissionError):
-        return
+        pass
     try:
         proc.wait(timeout=10)
     except subprocess.TimeoutExpired:
+        pass
+    end = time.time() + 10
+    while time.time() < end:
+        if proc.poll() is not None and not group_members(pgid):
+            break
         try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
+            os.killpg(pgid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
             pass
-        proc.wait()
+        time.sleep(0.1)
+    proc.wait()
 
 
 def status_text(state: dict) -> str:

@@ -3,9 +3,10 @@
     cli.py fit --blend shot.blend --out shot_ssgi.pt [--views 24] [--minutes 15] [--target-psnr P] [--size 240x135]
 
 Writes MODEL (a normal checkpoint whose input spec lists only the kept passes), MODEL.fit_report.json/.md
-beside it, and a work folder MODEL.fit/ (views.blend: the copy with the jittered cameras; views/: the baked
-views; views_plan.json: which camera is held out; the candidates' checkpoints). Running the same command
-again reuses the views already baked (the baker resumes). ``--data DIR`` fits views baked before (roles from
+beside it, and a work folder MODEL.fit/ (views-TAG.blend: the copy with the jittered cameras; views-TAG/: the
+baked views; views_plan.json: which camera is held out; the candidates' checkpoints). TAG hashes the .blend's
+bytes and the plan: the same command on an unchanged file reuses the views already baked (the baker
+resumes); an edited file gets new views. ``--data DIR`` fits views baked before (roles from
 ``--plan``, or: cameras named ssgi.fit.view_* held out as make_views does). The .blend itself is never written.
 ``--minutes`` is the whole budget, bake included.
 """
@@ -91,10 +92,12 @@ def _run(args) -> dict:
         size = tuple(args.size) if args.size else sfit.default_size(scene)
         plan.update(size=list(size), blend=str(blend))
         work.mkdir(parents=True, exist_ok=True)
-        wblend = work / "views.blend"
+        # views of THIS file with THESE settings: an edited scene gets new views, an unchanged one resumes
+        tag = _views_tag(blend, plan)
+        wblend = work / f"views-{tag}.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(wblend), copy=True)
         _write_json(work / "views_plan.json", plan)
-        data_dir = work / "views"
+        data_dir = work / f"views-{tag}"
         progress(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
         sfit.bake_views(wblend, data_dir, plan, size, ref_samples=args.ref_samples)
         bake_s = time.perf_counter() - t0
@@ -129,6 +132,18 @@ def _run(args) -> dict:
         rep.update(bake_minutes=res["bake_minutes"], total_minutes=res["total_minutes"])
         _write_json(rp, rep)
     return res
+
+
+def _views_tag(blend: Path, plan: dict) -> str:
+    """8 hex digits naming the .blend's bytes and the plan (cameras, frames, size, seed)."""
+    import hashlib
+    h = hashlib.sha256()
+    with open(blend, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    h.update(json.dumps({k: plan.get(k) for k in ("scene", "frames", "cameras", "size", "seed", "radius")},
+                        sort_keys=True).encode())
+    return h.hexdigest()[:8]
 
 
 def _split(data_dir, plan):

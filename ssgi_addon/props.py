@@ -20,6 +20,15 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="Training time budget")
     train_resume: bpy.props.BoolProperty(name="Resume", default=False,
                                          description="Continue the last training of this model (its .last.pt)")
+    # Fit to Scene panel (ssgi_addon/fit.py)
+    fit_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
+                                      description="The fitted model (.pt); empty: <file>_<scene>_ssgi_fit.pt beside the .blend")
+    fit_views: bpy.props.IntProperty(name="Views", default=24, min=4, soft_max=200,
+                                     description="About how many views of the scene to bake (some are held out)")
+    fit_minutes: bpy.props.FloatProperty(name="Minutes", default=15.0, min=0.1, soft_max=240.0,
+                                         description="The whole time budget of the fit, bake included")
+    fit_target_psnr: bpy.props.FloatProperty(name="Target PSNR", default=0.0, min=0.0, soft_max=60.0,
+                                             description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
 
 
 CLASSES = (SSGI_SceneSettings,)

@@ -274,7 +274,9 @@ def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_f
     assert cams["Camera"] == "train"
     jit = {c: r for c, r in cams.items() if c != "Camera"}
     assert len(jit) == 3 and sorted(jit.values()) == ["test", "train", "val"]
-    m = data.read_manifest(work / "views")
+    (views,) = [p for p in work.glob("views-*") if p.is_dir()]
+    m = data.read_manifest(views)
+    assert s["views"] == str(views)
     got = sorted((v["camera"], v["frame"]) for v in m["samples"].values())
     assert got == sorted((c, f) for c in cams for f in (1, 3))  # every camera at every frame: 8 views
     rep = checkpoint.load(scene_fit["model"])["fit"]
@@ -293,7 +295,7 @@ def test_jittered_cameras_stay_near_the_scene_cameras(scene_fit):
     out = scene_fit["dir"] / "cams.json"
     run_py(f'''
 import bpy, json, math
-bpy.ops.wm.open_mainfile(filepath={str(work / "views.blend")!r})
+bpy.ops.wm.open_mainfile(filepath={str(next(work.glob("views-*.blend")))!r})
 sc = bpy.context.scene
 cam = sc.objects["Camera"]
 poses = []
@@ -348,3 +350,56 @@ def test_cli_fit_errors_name_the_fault(tmp_path):
     p = run_cli("fit", "--out", str(tmp_path / "m.pt"), check=False, timeout=120)
     assert p.returncode == 2 and "--blend FILE" in p.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_fit_operator_runs_in_the_background_with_progress_and_cancel(scene_fit, tmp_path):
+    """The Fit to Scene operator in Blender (bpy module): Cancel ends the child process group and writes
+    nothing; a second run completes, reports its phases in order and sets the scene's model."""
+    out = tmp_path / "op.pt"
+    res = tmp_path / "res.json"
+    run_py(f'''
+import bpy, json, os, time, ssgi
+from ssgi.ssgi_addon import jobs
+ssgi.register()
+bpy.ops.wm.open_mainfile(filepath={str(scene_fit["blend"])!r})
+sc = bpy.context.scene
+sc.ssgi.fit_out = {str(out)!r}
+sc.ssgi.fit_views = 4
+sc.ssgi.fit_minutes = 0.9
+r = {{}}
+assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}
+job = jobs.get("fit")
+r["poll_while_running"] = bpy.ops.ssgi.fit_scene.poll()
+t = time.time()
+while job.pump() and job.state.get("phase") is None and time.time() - t < 120:
+    time.sleep(0.05)
+r["phase_at_cancel"] = job.state.get("phase")
+bpy.ops.ssgi.cancel_job(job="fit")
+job.wait(60)
+r["cancel_status"] = job.state["status"]
+from ssgi.ssgi_addon.fit import group_members
+r["group_alive"] = group_members(job.proc.pid)
+r["model_after_cancel"] = os.path.exists({str(out)!r})
+assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}
+job = jobs.get("fit")
+phases, prog = [], []
+t = time.time()
+while job.pump() and time.time() - t < 400:
+    ph = job.state.get("phase")
+    if ph and (not phases or phases[-1] != ph):
+        phases.append(ph)
+    prog.append(float(job.state.get("progress", 0)))
+    time.sleep(0.05)
+r.update(status=job.state["status"], error=job.error, phases=phases, model_path=sc.ssgi.model_path,
+         inputs=(job.result or {{}}).get("inputs"), max_progress=max(prog))
+json.dump(r, open({str(res)!r}, "w"))
+''', timeout=600)
+    r = json.loads(res.read_text())
+    assert r["poll_while_running"] is False
+    assert r["phase_at_cancel"] is not None and r["cancel_status"] == "cancelled"
+    assert r["group_alive"] == [] and r["model_after_cancel"] is False
+    assert r["status"] == "done", r["error"]
+    assert r["model_path"] == str(out) and out.is_file()
+    ph = r["phases"]
+    assert ph[:2] == ["views", "bake"] and ph[-1] == "done" and "size" in ph, ph
+    assert r["inputs"] == list(checkpoint.load(out)["inputs"])
