@@ -36,6 +36,8 @@ ap.add_argument("first", type=int)
 ap.add_argument("count", type=int)
 ap.add_argument("--size", default="240x135")
 ap.add_argument("--spp", type=int, default=128)
+ap.add_argument("--hard", action="store_true",
+                help="render the reference with EEVEE's hard lights and a black world (pure GI to learn)")
 a = ap.parse_args()
 w, h = (int(v) for v in a.size.split("x"))
 out = Path(a.out)
@@ -43,7 +45,8 @@ out.mkdir(parents=True, exist_ok=True)
 mpath = out / "manifest.json"
 m = json.loads(mpath.read_text()) if mpath.is_file() else dict(
     format_version=ch.FORMAT_VERSION, blender_version=bpy.app.version_string, channel_spec=ch.describe(),
-    settings=dict(size=[w, h], ref_samples=a.spp, denoise=True, source="docs/model_minibake.py"), samples={})
+    settings=dict(size=[w, h], ref_samples=a.spp, denoise=True, hard_reference=a.hard,
+                  source="docs/model_minibake.py"), samples={})
 
 
 def expose(g):
@@ -82,7 +85,7 @@ for seed in range(a.first, a.first + a.count):
     passes.set_resolution(scene, w, h)
     g = passes.render_gbuffer(scene)
     t1 = time.perf_counter()
-    g.update(passes.render_cycles(scene, a.spp, seed=seed, denoise=True))
+    g.update(passes.render_cycles(scene, a.spp, seed=seed, denoise=True, hard=a.hard))
     t2 = time.perf_counter()
     k = expose(g)
     exrio.write_sample(out / f"{key}.exr", g)

@@ -139,11 +139,11 @@ def curve_png(history, path, title="") -> None:
     _finish_plot(fig, ax, path, title, "PSNR (dB)")
 
 
-def _finish_plot(fig, ax, path, title, ylabel, fontsize=None) -> None:
+def _finish_plot(fig, ax, path, title, ylabel, fontsize=None, xlabel="training minutes") -> None:
     """Label, then save atomically (temp name + rename)."""
     import matplotlib.pyplot as plt
 
-    ax.set_xlabel("training minutes")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(alpha=0.3)
@@ -238,6 +238,7 @@ class Trainer:
         self.cpi = cfg.crops_per_image or max(1, int(round(area / (self.crop[0] * self.crop[1]))))
         self.step = self.epoch = 0
         self.elapsed = 0.0
+        self.cpu_before = 0.0  # process CPU seconds of earlier (resumed) runs
         self.history: list[dict] = []
         self.best: dict = {}
         self.lr_scale = 1.0
@@ -250,6 +251,7 @@ class Trainer:
             self.gen.set_state(ts["generator"])
             torch.set_rng_state(ts["torch_rng"])
             self.step, self.epoch, self.elapsed = ts["step"], ts["epoch"], ts["elapsed"]
+            self.cpu_before = ts.get("cpu_s", 0.0)
             self.lr_scale, self.lr_drops, self.skipped = ts["lr_scale"], ts["lr_drops"], ts["skipped"]
             self.quarantine = list(ts["quarantine"])
             self.history = list(resume["history"])
@@ -269,8 +271,14 @@ class Trainer:
     def _train_state(self) -> dict:
         return dict(config=asdict(self.cfg), optimizer=self.opt.state_dict(), generator=self.gen.get_state(),
                     torch_rng=torch.get_rng_state(), step=self.step, epoch=self.epoch, elapsed=self.elapsed,
+                    cpu_s=self._cpu_s(),
                     lr_scale=self.lr_scale, lr_drops=self.lr_drops, skipped=self.skipped, best=dict(self.best),
                     quarantine=list(self.quarantine))
+
+    def _cpu_s(self) -> float:
+        """CPU seconds of training so far (all threads of this process; a fairer clock than wall time on a
+        shared machine)."""
+        return self.cpu_before + time.process_time() - self.cpu0
 
     def _progress(self, epoch_frac: float) -> float:
         p = 0.0
@@ -380,7 +388,9 @@ class Trainer:
     def run(self, callback=None, should_stop=None) -> dict:
         cb = callback or (lambda d: None)
         stop = should_stop or (lambda: False)
+        self.cpu0 = time.process_time()
         self._setup()
+        self.cpu0 = time.process_time()  # data loading does not count
         cfg = self.cfg
         self.bad_streak = self.good_losses = 0
         self.loss_ema = None
@@ -429,7 +439,7 @@ class Trainer:
             if not math.isfinite(ev["val_loss"]):
                 self._restore()
                 raise Diverged(f"validation loss is not finite at epoch {self.epoch}; stopped, {self.out} is kept")
-            entry = dict(epoch=self.epoch, step=self.step, minutes=self.elapsed / 60.0,
+            entry = dict(epoch=self.epoch, step=self.step, minutes=self.elapsed / 60.0, cpu_minutes=self._cpu_s() / 60.0,
                          loss=float(np.mean(losses)) if losses else math.nan, lr=self._lr(self._progress(self.epoch)),
                          skipped=self.skipped, partial=partial, **ev)
             self.history.append(entry)
@@ -468,7 +478,7 @@ class Trainer:
             checkpoint.save(self.out, checkpoint.make(self.net, "network", **kw))
 
 
-def compare_png(models, path, title="validation PSNR against training time") -> list[dict]:
+def compare_png(models, path, title="validation PSNR against training time", cpu: bool = False) -> list[dict]:
     """One plot of several checkpoints' learning curves (from MODEL.last.pt's history when present); a
     closed-form baseline (one history entry) is drawn as a horizontal line. Returns the rows plotted."""
     import matplotlib
@@ -486,10 +496,11 @@ def compare_png(models, path, title="validation PSNR against training time") -> 
         if ck.get("kind") == "linear":
             ax.axhline(h[-1]["val_psnr"], ls=":", color="k", label=f"linear baseline {h[-1]['val_psnr']:.2f} dB")
         else:
-            ax.plot([e["minutes"] for e in h], [e["val_psnr"] for e in h], "-", label=label)
+            ax.plot([e["cpu_minutes" if cpu else "minutes"] for e in h], [e["val_psnr"] for e in h], "-", label=label)
         best = max(h, key=lambda e: e["val_psnr"])
         rows.append(dict(model=str(m), variant=ck["arch"]["variant"], params=ck.get("params"), best_val_psnr=best["val_psnr"],
                          best_val_tm_psnr=best.get("val_tm_psnr"), best_val_ssim=best.get("val_ssim"),
                          minutes=h[-1]["minutes"], epochs=h[-1]["epoch"]))
-    _finish_plot(fig, ax, path, title, "val PSNR, linear clamped (dB)", fontsize=8)
+    _finish_plot(fig, ax, path, title, "val PSNR, linear clamped (dB)", fontsize=8,
+                 xlabel="training CPU minutes (all threads)" if cpu else "training minutes")
     return rows

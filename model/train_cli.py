@@ -72,7 +72,7 @@ def run_bench(args) -> dict:
 
 def run_curves(args) -> dict:
     from .train import compare_png
-    rows = compare_png(args.models, args.out)
+    rows = compare_png(args.models, args.out, cpu=args.cpu)
     for r in rows:
         print(f"{r['variant']:>10} {r['params'] or 0:>8} params  best val PSNR {r['best_val_psnr']:.2f} dB  "
               f"after {r['minutes']:.1f} min ({r['epochs']} epochs)  {r['model']}", file=sys.stderr)
@@ -132,6 +132,7 @@ def register_cli(sub) -> None:
     p = sub.add_parser("curves", help="plot the learning curves of several models in one PNG")
     p.add_argument("--models", nargs="+", required=True, metavar="M", help="checkpoints (train or baseline)")
     p.add_argument("--out", required=True, metavar="PNG")
+    p.add_argument("--cpu", action="store_true", help="x axis: CPU minutes instead of wall minutes (needs cpu_minutes in the history)")
     p.set_defaults(func=run_curves)
 
     p = sub.add_parser("bench", help="time prediction of each variant at several sizes",
