@@ -18,6 +18,8 @@ _CLASS_MODULES = (
     "ssgi_addon.training",
     "ops.train_ops",
     "panels.train_panel",
+    "ops.report_ops",
+    "panels.report_panel",
     "ops.fit_ops",
     "panels.fit_panel",
 )

@@ -20,6 +20,13 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="Training time budget")
     train_resume: bpy.props.BoolProperty(name="Resume", default=False,
                                          description="Continue the last training of this model (its .last.pt)")
+    # Report panel (ssgi_addon/report_cli.py)
+    report_models: bpy.props.StringProperty(name="More models", default="",
+                                            description="More checkpoints to compare, separated by ';' (network sizes, the linear baseline)")
+    report_out: bpy.props.StringProperty(name="Report folder", subtype="DIR_PATH", default="",
+                                         description="Where report.md, pareto.png, examples.png go; empty: ssgi_report beside the dataset")
+    report_max_scenes: bpy.props.IntProperty(name="Scenes", default=6, min=1, soft_max=50,
+                                             description="Evaluate at most this many validation scenes")
     # Fit to Scene panel (ssgi_addon/fit.py)
     fit_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
                                       description="The fitted model (.pt); empty: <file>_<scene>_ssgi_fit.pt beside the .blend")

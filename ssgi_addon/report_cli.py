@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import shlex
 import sys
 import time
@@ -44,7 +45,8 @@ def register_cli(sub) -> None:
                                    "report.md, report.json, pareto.png and examples.png into --out.")
     p.add_argument("--data", type=cliargs.existing_dir, help="dataset folder (its validation scenes are evaluated)")
     p.add_argument("--scenes", nargs="+", type=cliargs.existing_file, metavar="FILE.blend",
-                   help="evaluate these .blend files instead (scene camera, current frame; reference rendered here)")
+                   help="evaluate these .blend files instead: baked first into OUT/data (cli.py bake --scenes: "
+                        "each camera at the current frame)")
     p.add_argument("--models", nargs="+", type=cliargs.existing_file, required=True, metavar="MODEL.pt",
                    help="model checkpoints: the network sizes and the linear baseline (cli.py train / baseline)")
     p.add_argument("--out", required=True, help="output folder")
@@ -53,9 +55,9 @@ def register_cli(sub) -> None:
                    help="dataset scenes to evaluate: the validation split (default) or all")
     p.add_argument("--spp", type=spp_list, default=spp_list(DEFAULT_SPP), help=f"Cycles ladder (default {DEFAULT_SPP})")
     p.add_argument("--size", type=cliargs.parse_size, default=None,
-                   help="render size with --scenes (default 240x135; a dataset's own size otherwise)")
+                   help="bake size with --scenes (default: the baker's, 240x135); a dataset's own size otherwise")
     p.add_argument("--ref-samples", type=cliargs.positive_int, default=None,
-                   help="reference samples with --scenes (default 256); a dataset's own setting otherwise")
+                   help="reference samples with --scenes (default: the baker's); a dataset's own setting otherwise")
     p.add_argument("--reference-scenes", type=cliargs.nonnegative_int, default=1,
                    help="re-render the reference (another seed) on this many scenes, for its time (default 1)")
     p.add_argument("--eevee-samples", type=cliargs.positive_int, default=64,
@@ -67,8 +69,8 @@ def register_cli(sub) -> None:
     p.add_argument("--no-scaling", action="store_true", help="skip the scaling measurements")
     p.add_argument("--temporal-frames", type=cliargs.nonnegative_int, default=4,
                    help="frames of the camera move for temporal stability (default 4; 0 or 1 skips it)")
-    p.add_argument("--temporal-ref-samples", type=cliargs.positive_int, default=256,
-                   help="reference samples per frame of the camera move (default 256)")
+    p.add_argument("--temporal-ref-samples", type=cliargs.positive_int, default=None,
+                   help="reference samples per frame of the camera move (default: the dataset's reference setting)")
     p.add_argument("--threads", type=cliargs.positive_int, default=1,
                    help="torch threads for the predictions (default 1, the add-on's default)")
     p.add_argument("--no-fit-baseline", action="store_true",
@@ -104,6 +106,25 @@ def default_model_key(keys_paths) -> str | None:
     return next((key for key, _, kind in keys_paths if kind != "linear"), None)
 
 
+def _bake_scenes(args, out: Path):
+    """``--scenes``: bake the .blend files with the baker (bake --scenes: each scene camera at its current frame)
+    into OUT/data (resumable), then evaluate every sample of it."""
+    from . import bake
+    from . import report_run as rr
+
+    data = out / "data"
+    size = tuple(args.size) if args.size else bake.DEFAULT_SIZE
+    t = time.perf_counter()
+    rr.log(f"baking {len(args.scenes)} .blend file(s) into {data} (cli.py bake --scenes)")
+    res = bake.bake(data, scenes=[str(p) for p in args.scenes], size=size,
+                    ref_samples=args.ref_samples or bake.DEFAULT_REF_SAMPLES,
+                    progress=lambda done, total, info: rr.log(f"bake {done}/{total}: {info}"))
+    scenes, over, notes = rr.dataset_scenes(data, (), args.max_scenes, "all", per_sample=True)
+    notes.append(f"--scenes: baked by ssgi_addon/bake.py into {data} ({res['baked']} baked, {res['skipped']} already "
+                 f"there, {time.perf_counter() - t:.1f} s); every sample evaluated")
+    return scenes, dict(over, source="--scenes " + " ".join(str(p) for p in args.scenes)), notes
+
+
 def _run(args) -> dict:
     import bpy
 
@@ -132,20 +153,17 @@ def _run(args) -> dict:
         notes.append(f"only {n_net} network size(s) given; issue 6 asks for at least 3 (small to large)")
 
     if args.scenes:
-        size = tuple(args.size) if args.size else (240, 135)
-        scenes = rr.blend_scenes(args.scenes, size, args.max_scenes)
-        over = dict(size=size, ref_samples=args.ref_samples or 256, ref_denoise=False,
-                    source="--scenes " + " ".join(str(p) for p in args.scenes))
+        scenes, over, n2 = _bake_scenes(args, out)
     else:
         if args.size or args.ref_samples:
             notes.append("--size and --ref-samples are ignored with --data: the dataset's own settings are used")
         scenes, over, n2 = rr.dataset_scenes(args.data, [pr.ckpt for _, pr in preds], args.max_scenes, args.split)
-        notes += n2
+    notes += n2
     settings = rr.Settings(spp=tuple(args.spp), eevee_samples=args.eevee_samples,
                            eevee_high_samples=args.eevee_high_samples,
                            reference_scenes=min(args.reference_scenes, len(scenes)), threads=args.threads,
                            sizes=tuple(args.sizes), temporal_frames=args.temporal_frames,
-                           temporal_ref_samples=args.temporal_ref_samples, **over)
+                           temporal_ref_samples=args.temporal_ref_samples or over["ref_samples"], **over)
     rr.log(f"{len(scenes)} scene(s) at {settings.size[0]}x{settings.size[1]}, {len(preds)} model(s), "
            f"Cycles ladder {','.join(map(str, settings.spp))} spp")
 
@@ -179,3 +197,73 @@ def _run(args) -> dict:
         res["default_speedup"] = None if not math.isfinite(e["speedup"]) else dict(
             speedup=e["speedup"], bound=e["bound"], winner=e["winner"])
     return res
+
+
+# --------------------------------------------------------------------------------------------- the UI's job
+
+JOB = "report"
+PROGRESS_RE = re.compile(r"report: progress ([0-9.]+) eta (\S+?)s: (.*)$")
+
+
+def command(data, models, out, max_scenes: int = 6, options: str = "") -> list[str]:
+    """The ``cli.py report`` command line the Report button runs in a separate process: the bpy module's
+    Python here, ``blender --background --python cli.py --`` in the Blender app (the user's file is never
+    touched: the report opens and builds its own scenes)."""
+    import bpy
+
+    from . import root_package
+    root = Path(sys.modules[root_package()].__file__).resolve().parent
+    head = ([sys.executable, str(root / "cli.py")] if getattr(bpy.app, "module", False)
+            else [bpy.app.binary_path, "--background", "--python", str(root / "cli.py"), "--"])
+    try:
+        extra = shlex.split(options or "")
+    except ValueError as e:
+        raise UserError(f"report options {options!r}: {e}") from None
+    return head + ["report", "--data", str(data), "--models", *map(str, models), "--out", str(out),
+                   "--max-scenes", str(int(max_scenes)), *extra]
+
+
+def start_job(cmd: list[str], out) -> "jobs.Job":
+    """Run ``cmd`` (``command(...)``) in a background job: its progress lines become ``job.state`` (progress,
+    eta_s, message); the result is the summary read back from OUT/report.json. Cancel ends the process."""
+    import json
+
+    from . import deps, jobs
+
+    out = Path(out)
+
+    def work(job):
+        errors: list[str] = []
+
+        def on_line(line: str) -> None:
+            m = PROGRESS_RE.search(line)
+            if m:
+                eta = float(m.group(2)) if m.group(2) not in ("nan", "inf") else None
+                job.report(progress=float(m.group(1)), eta_s=eta, message=m.group(3))
+            elif line.startswith("report: "):
+                job.report(message=line[len("report: "):])
+            elif "error:" in line:
+                errors.append(line)
+
+        job.report(message="starting: " + " ".join(cmd[-8:]))
+        code, tail = deps.run_pip(cmd, on_line=on_line, should_cancel=lambda: job.cancelled)
+        job.check_cancel()
+        if code != 0:
+            last = errors[-1] if errors else ([l for l in tail.splitlines() if l.strip()] or ["(no output)"])[-1]
+            raise UserError(f"cli.py report exited with status {code}: {last}")
+        raw = json.loads((out / "report.json").read_text())
+        res = dict(files=raw.get("files", {}), scenes=raw.get("scenes", []), run_s=raw.get("run_s"))
+        dk = raw.get("default_model_key")
+        if dk:
+            res["verdict"] = (raw.get("verdicts", {}).get(dk) or [""])[0]
+            res["default_model"] = raw["methods"][dk]["label"]
+        return res
+
+    return jobs.Job(JOB, work).start()
+
+
+def status_text(state: dict) -> str:
+    eta = state.get("eta_s")
+    t = f" (about {eta / 60:.0f} min left)" if eta is not None and eta >= 60 else (
+        f" ({eta:.0f} s left)" if eta is not None else "")
+    return f"{100 * float(state.get('progress', 0.0)):.0f}%{t}: {state.get('message', '')}"[:140]

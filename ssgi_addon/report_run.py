@@ -3,10 +3,12 @@ time it (``cli.py report``; the "Report" button runs that command in a backgroun
 
     raw, images = ReportRun(scenes, models, settings, log).run()     # then model.report.write_outputs
 
-Evaluation scenes (``EvalScene``) come from a dataset folder (``dataset_scenes``: the validation scenes of
-the split the models were trained with, one sample each, rebuilt from the sample's room seed; the stored
-Cycles reference is the target) or from .blend files (``blend_scenes``: each file's scene camera at its
-current frame; the reference is rendered here at ``ref_samples``).
+Evaluation scenes (``EvalScene``) come from a dataset folder (``dataset_scenes``): the validation scenes of
+the split the models were trained with, one sample each, rebuilt from the sample's room seed (or reopened
+from its .blend, camera and frame); the stored Cycles reference is the target. ``cli.py report --scenes``
+first bakes the user's .blend files with the baker (ssgi_addon/bake.py) into OUT/data, then evaluates every
+sample of that dataset. A sample's ``exposure`` (a factor the dataset applied to every light image after
+rendering) is applied to every image rendered here too.
 
 Per scene, in this order, each timed with ``time.perf_counter`` around the call that makes the image:
 
@@ -59,14 +61,14 @@ REF_SEED_OFFSET = 104729  # the re-rendered reference uses the target's seed + t
 class EvalScene:
     name: str
     open: Callable[[], object]  # opens/builds the scene, sets camera and frame; returns the bpy scene
-    ref: np.ndarray | None = None  # the stored target (HxWx3); None: render it here at ref_samples
+    ref: np.ndarray  # the stored Cycles reference (HxWx3): the target
     meta: dict = field(default_factory=dict)
     exposure: float = 1.0  # the dataset scaled every light image of this sample by this after rendering
     stored_eevee: np.ndarray | None = None  # the dataset's own EEVEE direct image: checks the rebuilt scene
 
-    def gbuffer(self, scene) -> dict[str, np.ndarray]:
+    def gbuffer(self, scene, samples: int = 1) -> dict[str, np.ndarray]:
         """passes.render_gbuffer with the light groups scaled by ``exposure`` (as the dataset stored them)."""
-        g = passes.render_gbuffer(scene)
+        g = passes.render_gbuffer(scene, samples=samples)
         if self.exposure != 1.0:
             k = np.float32(self.exposure)
             g["direct"] = g["direct"] * k
@@ -84,9 +86,9 @@ class Settings:
     spp: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
     eevee_samples: int = 64
     eevee_high_samples: int = 64
-    ref_samples: int = 256
-    ref_denoise: bool = False
-    ref_seed: int = 0
+    ref_samples: int = 32
+    ref_denoise: bool = True
+    gbuffer_samples: int = 1
     reference_scenes: int = 1
     predict_repeats: int = 3
     threads: int = 1
@@ -150,10 +152,12 @@ def _blend_opener(path: Path, scene_name: str | None, camera: str | None, frame:
     return open_
 
 
-def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, split: str = "val"):
+def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, split: str = "val",
+                   per_sample: bool = False):
     """(EvalScenes, Settings overrides, notes) of a dataset folder: one sample (the first key) of each
-    evaluation scene. ``split`` "val": the validation scenes recorded in the first model checkpoint that was
-    trained on this very dataset (same manifest hash), else data.split_scenes' default split; "all": all."""
+    evaluation scene, or every sample with ``per_sample``. ``split`` "val": the validation scenes recorded in the
+    first model checkpoint that was trained on this very dataset (same manifest hash), else data.split_scenes'
+    default split; "all": all."""
     from ..model import data, exrio
 
     root = Path(data_dir)
@@ -164,8 +168,8 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     size = st.get("size") or (240, 135)
     size = tuple(int(v) for v in (size.lower().split("x") if isinstance(size, str) else size))
     by_scene: dict[str, list[str]] = {}
-    for key, s in sorted(m["samples"].items()):
-        by_scene.setdefault(str(s["scene"]), []).append(key)
+    for key, smp in sorted(m["samples"].items()):
+        by_scene.setdefault(str(smp["scene"]), []).append(key)
     notes = []
     if split == "all":
         chosen = sorted(by_scene)
@@ -175,8 +179,8 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
         for ck in model_ckpts:
             ds = ck.get("dataset") or {}
             if ds.get("manifest_sha256") == sha and (ds.get("split") or {}).get("val"):
-                chosen = [s for s in ds["split"]["val"] if s in by_scene]
-                notes.append(f"evaluation scenes: the validation split recorded in the model checkpoints")
+                chosen = [sc for sc in ds["split"]["val"] if sc in by_scene]
+                notes.append("evaluation scenes: the validation split recorded in the model checkpoints")
                 break
         if chosen is None:
             if len(by_scene) < 2:
@@ -185,40 +189,29 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
             else:
                 chosen = data.split_scenes(by_scene, 0.2, 0)[1]
                 notes.append("evaluation scenes: data.split_scenes(scenes, 0.2, seed 0)[1] (no given model records a "
-                             "split of this dataset)")
+                             "split of this very dataset)")
+    keys = [(sc, k) for sc in chosen for k in (by_scene[sc] if per_sample else by_scene[sc][:1])]
     if max_scenes:
-        chosen = chosen[:max_scenes]
+        keys = keys[:max_scenes]
     out = []
-    for sc in chosen:
-        key = by_scene[sc][0]
+    for sc, key in keys:
         meta = m["samples"][key]
         path = root / f"{key}.exr"
         stored = exrio.read_sample(path, (ch.TARGET_GROUP, "eevee"))
-        ref = stored[ch.TARGET_GROUP][..., :3]
         if meta.get("blend"):
-            opener = _blend_opener(Path(meta["blend"]), meta.get("blend_scene"), meta.get("camera_name") or
-                                   (meta["camera"] if isinstance(meta.get("camera"), str) else None),
-                                   meta.get("frame"), size)
+            cam = meta.get("camera") if isinstance(meta.get("camera"), str) else None
+            opener = _blend_opener(Path(meta["blend"]), meta.get("blend_scene"), cam, meta.get("frame"), size)
+            name = f"{sc}:{cam}:{meta.get('frame')}" if per_sample else sc
         elif "seed" in meta:
             opener = _room_opener(int(meta["seed"]), size)
+            name = sc
         else:
             raise UserError(f"{root / 'manifest.json'}: sample {key} names neither a room seed nor a .blend file")
-        out.append(EvalScene(name=sc, open=opener, ref=ref, meta=dict(meta, key=key),
+        out.append(EvalScene(name=name, open=opener, ref=stored[ch.TARGET_GROUP][..., :3], meta=dict(meta, key=key),
                              exposure=float(meta.get("exposure", 1.0)), stored_eevee=stored["eevee"][..., :3]))
-    over = dict(size=size, ref_samples=int(st.get("ref_samples") or 256), ref_denoise=bool(st.get("denoise", False)),
-                source=f"dataset {root}")
+    over = dict(size=size, ref_samples=int(st.get("ref_samples") or 32), ref_denoise=bool(st.get("denoise", False)),
+                gbuffer_samples=int(st.get("eevee_samples") or 1), source=f"dataset {root}")
     return out, over, notes
-
-
-def blend_scenes(paths, size, max_scenes: int | None = None) -> list[EvalScene]:
-    """Each .blend's active scene, its scene camera at its current frame; the reference is rendered here."""
-    out = []
-    for p in paths:
-        p = Path(p)
-        if not p.is_file():
-            raise UserError(f"--scenes {p}: no such .blend file")
-        out.append(EvalScene(name=p.stem, open=_blend_opener(p.resolve(), None, None, None, size), meta=dict(blend=str(p))))
-    return out[:max_scenes] if max_scenes else out
 
 
 # --------------------------------------------------------------------------------------------- renders
@@ -317,7 +310,7 @@ class ReportRun:
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
-        g = passes.render_gbuffer(scene)
+        g = passes.render_gbuffer(scene, samples=self.s.gbuffer_samples)
         for k in GI_PRESETS:
             render_eevee_gi(scene, k, 1)
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
@@ -346,14 +339,10 @@ class ReportRun:
             self._warmup(scene)
         name = es.name
         self.raw["scenes"].append(name)
-        g, t_g = _timed(es.gbuffer, scene)
+        g, t_g = _timed(es.gbuffer, scene, s.gbuffer_samples)
         self._step(f"{name}: G-buffer {t_g:.2f} s")
         mask = normalize.geometry_mask(g["depth"], g["normal"])
         ref = es.ref
-        if ref is None:
-            ref, t_ref = _timed(passes.render_cycles, scene, s.ref_samples, seed=s.ref_seed, denoise=s.ref_denoise)
-            ref = es.light(ref["ref"])
-            self.raw.setdefault("reference_renders", {})[name] = t_ref
         if ref.shape[:2] != g["depth"].shape[:2]:
             raise UserError(f"scene {name}: the stored reference is {ref.shape[1]}x{ref.shape[0]}, the render "
                             f"{g['depth'].shape[1]}x{g['depth'].shape[0]}")
@@ -390,7 +379,7 @@ class ReportRun:
                         dict(render_s=t_r, denoise_s=max(0.0, t_o - t_r), whole_s=t_o, own_s=t_o))
             self._step(f"{name}: Cycles {spp} spp + OIDN {t_o:.2f} s")
         if index < s.reference_scenes:
-            seed = int(es.meta.get("seed", s.ref_seed)) + REF_SEED_OFFSET
+            seed = int(es.meta.get("seed", 0)) + REF_SEED_OFFSET
             img, t = _timed(passes.render_cycles, scene, s.ref_samples, seed=seed, denoise=s.ref_denoise)
             self._score("reference", name, es.light(img["ref"]), ref, mask, dict(render_s=t, whole_s=t, own_s=t))
             self._step(f"{name}: reference again {t:.2f} s")
@@ -410,7 +399,7 @@ class ReportRun:
         for z in sizes:
             w, h = parse_size(z)
             passes.set_resolution(scene, w, h)
-            _, t = _timed(passes.render_gbuffer, scene)
+            _, t = _timed(passes.render_gbuffer, scene, samples=self.s.gbuffer_samples)
             out["gbuffer"].append(dict(size=z, seconds=t))
             _, t = _timed(passes.render_cycles, scene, 1, seed=LADDER_SEED, denoise=True)
             out["cycles_1spp_oidn"].append(dict(size=z, seconds=t))
@@ -442,14 +431,14 @@ class ReportRun:
             cam.location = loc0 + x_axis * (0.4 * t)
             cam.rotation_euler = (rot0.x, rot0.y, rot0.z + math.radians(8) * t)
             bpy.context.view_layer.update()
-            g = es.gbuffer(scene)
+            g = es.gbuffer(scene, s.gbuffer_samples)
             seqs.setdefault("EEVEE direct light only", []).append(g["eevee"][..., :3])
             for key, (path, pred) in self._model_keys.items():
                 seqs.setdefault(self.raw["methods"][key]["label"], []).append(pred.predict(g))
             if rung is not None:
                 img = es.light(passes.render_cycles(scene, rung[0], seed=LADDER_SEED, denoise=True)["ref"])
                 seqs.setdefault(f"Cycles {rung[0]} spp + OIDN (equal time)", []).append(img)
-            refs.append(es.light(passes.render_cycles(scene, s.temporal_ref_samples, seed=s.ref_seed,
+            refs.append(es.light(passes.render_cycles(scene, s.temporal_ref_samples, seed=int(es.meta.get("seed", 0)),
                                                       denoise=s.ref_denoise)["ref"]))
             self.log(f"temporal: frame {i + 1}/{frames}")
         res = {name: rep.temporal_change(imgs, refs) for name, imgs in seqs.items()}
