@@ -52,13 +52,14 @@ def write_exr(path, planes: dict[str, np.ndarray], half: bool = True, header: di
             tmp.unlink()
 
 
-_STDOUT_LOCK = threading.Lock()
+_STDOUT_LOCK = threading.RLock()  # re-entrant: blocks nest (render_cli wraps whole commands)
 
 
 @contextlib.contextmanager
-def _stdout_to_stderr():
-    """OpenEXR's binding prints "Warning: Exception raised reading pixel data ..." on C stdout for a file cut
-    short; keep stdout for ``--json`` summaries (flush C stdio before and after moving file descriptor 1)."""
+def stdout_to_stderr():
+    """Send what C code prints on stdout to stderr meanwhile, so that stdout holds only ``--json`` summaries
+    (OpenEXR's binding prints "Warning: Exception raised reading pixel data ..." there for a file cut short;
+    Blender prints "Read blend: ..."). C stdio is flushed before and after moving file descriptor 1."""
     try:
         libc = ctypes.CDLL(None)
     except (OSError, TypeError):  # no process-wide C library handle (Windows): leave stdout alone
@@ -74,6 +75,7 @@ def _stdout_to_stderr():
         try:
             yield
         finally:
+            sys.stdout.flush()
             libc.fflush(None)
             os.dup2(saved, 1)
             os.close(saved)
@@ -88,7 +90,7 @@ def read_exr(path) -> tuple[dict[str, np.ndarray], dict]:
         raise UserError(f"{path}: no such EXR file")
     try:
         declared = [c.name for part in OpenEXR.File(str(path), header_only=True).parts for c in part.header["channels"]]
-        with _stdout_to_stderr():
+        with stdout_to_stderr():
             f = OpenEXR.File(str(path), separate_channels=True)
         planes: dict[str, np.ndarray] = {}
         header: dict = {}

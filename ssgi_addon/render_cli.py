@@ -8,32 +8,12 @@ is never written.
 """
 from __future__ import annotations
 
-import contextlib
-import ctypes
-import os
 import sys
 from pathlib import Path
 
 from ..model import cliargs
+from ..model.exrio import stdout_to_stderr  # noqa: F401  (bake.py imports it from here)
 from ..model.errors import UserError
-
-
-@contextlib.contextmanager
-def stdout_to_stderr():
-    """Send what Blender prints on stdout ("Read blend: ...", "Saved: ...") to stderr, so that stdout holds
-    only the --json summary."""
-    libc = ctypes.CDLL(None)
-    sys.stdout.flush()
-    libc.fflush(None)
-    saved = os.dup(1)
-    os.dup2(2, 1)
-    try:
-        yield
-    finally:
-        sys.stdout.flush()
-        libc.fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 def run(args) -> dict:
