@@ -6,12 +6,20 @@ scenes run on weights that have learnt something, not only on random ones. One m
 """
 from __future__ import annotations
 
+import random
+import signal
+import subprocess
+import sys
+import time
+
 import numpy as np
 import pytest
 
 from ssgi.model import synthetic
 from ssgi.model.bench import synthetic_groups
 from ssgi.model.train import TrainConfig, Trainer
+
+from ..conftest import ROOT, clean
 
 # variant name -> architecture overrides; "fssgi" is shrunk to keep the suite fast (same head and backbone)
 MODELS = {"unet_s": {}, "fssgi": {"width": 16, "pre": 2, "post": 2}}
@@ -47,3 +55,28 @@ def groups(w: int, h: int, seed: int = 0, light: float = 1.0) -> dict[str, np.nd
     g = synthetic_groups(w, h, seed)
     g["direct"] = (g["direct"] * np.float32(light)).astype(np.float32)
     return g
+
+
+def kill_at_random(args: list[str], ready, seed: int, span: float, timeout: float = 300) -> float:
+    """Start `cli.py ARGS`; once ``ready()`` is true, wait a delay drawn from random.Random(seed) in
+    [0, span) seconds and SIGKILL it. Fails if it ended before the kill. Returns the delay."""
+    delay = random.Random(seed).uniform(0.0, span)
+    p = subprocess.Popen([sys.executable, str(ROOT / "cli.py"), *args], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, cwd=ROOT)
+    try:
+        t0 = time.monotonic()
+        while not ready():
+            assert p.poll() is None, clean(p.stderr.read().decode(errors="replace"))[-3000:]
+            assert time.monotonic() - t0 < timeout, "the job never got going"
+            time.sleep(0.02)
+        time.sleep(delay)
+        assert p.poll() is None, "the job ended before the kill: make it longer"
+        p.send_signal(signal.SIGKILL)
+        p.wait(30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+        p.stderr.close()
+    assert p.returncode == -signal.SIGKILL
+    return delay

@@ -229,3 +229,32 @@ def test_non_checkpoint_resume_file_to_train(dataset, tmp_path):
     _user_error(p, f"{last}: not an SSGI model checkpoint")
     _untouched(model, before)
     assert (last.read_bytes(), last.stat().st_mtime_ns) == last_before
+
+
+# ------------------------------------------------------------------------------------------- verify
+
+def test_verify_names_every_broken_file_and_its_fault(template, tmp_path):
+    """Case 8: `cli.py verify` on a dataset with a truncated sample, a sample missing a channel, a sample with
+    a channel outside the spec, a sample with NaN, and a leftover temporary file lists each file with its
+    fault and exits 2 without a traceback; a manifest of a newer format is named as such."""
+    d = synthetic.make_dataset(tmp_path / "d", scenes=3, per_scene=2, w=16, h=12, seed=6)
+    _truncate(d / "000000.exr")
+    _rewrite(d / "000001.exr", drop=["depth.Z"])
+    _rewrite(d / "000002.exr", add=["position.X"])
+    g = exrio.read_sample(d / "000003.exr")
+    g["ref"][2, 2, 0] = np.nan
+    exrio.write_sample(d / "000003.exr", g, half=False)
+    (d / ".000004.exr.4242.tmp").write_bytes(b"x")
+    p = run_cli("verify", str(d), check=False)
+    _user_error(p, f"{d / '000000.exr'}: truncated or corrupt OpenEXR file",
+                f"{d / '000001.exr'}: missing channel(s) depth.Z",
+                f"{d / '000002.exr'}: unexpected channel(s) position.X",
+                f"{d / '000003.exr'}: 1 non-finite value(s) in ref",
+                ".000004.exr.4242.tmp", "5 problem(s) found")
+    assert "000005.exr" not in p.stderr  # the good samples are not blamed
+    m = json.loads((template / "manifest.json").read_text())
+    m["format_version"] = ch.FORMAT_VERSION + 1
+    newer = Path(shutil.copytree(template, tmp_path / "newer"))
+    (newer / "manifest.json").write_text(json.dumps(m))
+    p = run_cli("verify", str(newer), check=False)
+    _user_error(p, f"{newer / 'manifest.json'}", f"{ch.FORMAT_VERSION + 1}")

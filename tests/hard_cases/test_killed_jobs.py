@@ -6,42 +6,13 @@ of a write leaves it is added, and the same command is run again. Tiny sizes: re
 from __future__ import annotations
 
 import json
-import random
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-from ..conftest import ROOT, clean, run_cli, run_py
-
-
-def _kill_when(args: list[str], ready, seed: int, span: float, timeout: float = 300) -> float:
-    """Start `cli.py ARGS`; once ``ready()`` is true, wait a delay drawn from random.Random(seed) in
-    [0, span) seconds and SIGKILL it. Fails if it ended before the kill. Returns the delay."""
-    delay = random.Random(seed).uniform(0.0, span)
-    p = subprocess.Popen([sys.executable, str(ROOT / "cli.py"), *args], stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE, cwd=ROOT)
-    try:
-        t0 = time.monotonic()
-        while not ready():
-            assert p.poll() is None, clean(p.stderr.read().decode(errors="replace"))[-3000:]
-            assert time.monotonic() - t0 < timeout, "the job never got going"
-            time.sleep(0.02)
-        time.sleep(delay)
-        assert p.poll() is None, "the job ended before the kill"
-        p.send_signal(signal.SIGKILL)
-        p.wait(30)
-    finally:
-        if p.poll() is None:
-            p.kill()
-            p.wait()
-        p.stderr.close()
-    assert p.returncode == -signal.SIGKILL
-    return delay
+from ..conftest import clean, run_cli
+from ..test_node import room  # noqa: F401  (fixture: a 64x36, 3-frame room .blend with SSGI set up)
+from .conftest import kill_at_random
 
 
 def _no_temps(folder: Path) -> list[str]:
@@ -65,7 +36,7 @@ def test_killed_bake_reruns_to_a_valid_dataset_with_the_same_pixels(tmp_path):
     an uninterrupted bake with the same seeds (same machine, same Blender)."""
     a, b = tmp_path / "a", tmp_path / "b"
     run_cli("bake", "--out", str(a), *BAKE, timeout=400)
-    _kill_when(["bake", "--out", str(b), *BAKE], lambda: (b / "000000.exr").is_file(), seed=5, span=4.0)
+    kill_at_random(["bake", "--out", str(b), *BAKE], lambda: (b / "000000.exr").is_file(), seed=5, span=4.0)
     (b / ".000002.exr.999999.tmp").write_bytes(b"half a sample")
     p = run_cli("bake", "--out", str(b), *BAKE, "--json", timeout=400)
     res = json.loads(p.stdout)
@@ -86,32 +57,15 @@ def test_killed_bake_reruns_to_a_valid_dataset_with_the_same_pixels(tmp_path):
 
 # ------------------------------------------------------------------------------------------- render
 
-@pytest.fixture(scope="module")
-def shot(tmp_path_factory):
-    """A 64x36, 3-frame shot with SSGI set up (test_node's room and a random checkpoint)."""
-    from ..test_node import SCENE, make_checkpoint
-    d = tmp_path_factory.mktemp("hard-shot")
-    model = make_checkpoint(d / "model.pt")
-    blend = d / "shot.blend"
-    run_py(SCENE + f'''
-import ssgi
-ssgi.register()
-sc = build_room({str(d / "unused_####")!r})
-assert bpy.ops.ssgi.setup(model={str(model)!r}) == {{"FINISHED"}}
-bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
-''', timeout=300)
-    return blend
-
-
-def test_killed_render_reruns_to_complete_valid_frames(shot, tmp_path):
+def test_killed_render_reruns_to_complete_valid_frames(room, tmp_path):
     """Case 9: `cli.py render` of 3 frames killed at a seeded random moment after its first frame, plus a
     temporary frame file as a kill in the middle of a write leaves it, then run again: every frame is a
     complete, readable 64x36 RGBA image with finite values, and no temporary file is left in the output
     folder."""
     from ssgi.model import exrio
     out = tmp_path / "frames"
-    args = ["render", "--blend", str(shot), "--out", str(out / "f_####"), "--frames", "1-3", "--samples", "1"]
-    _kill_when(args, lambda: (out / "f_0001.exr").is_file(), seed=3, span=3.0)
+    args = ["render", "--blend", str(room["blend"]), "--out", str(out / "f_####"), "--frames", "1-3", "--samples", "1"]
+    kill_at_random(args, lambda: (out / "f_0001.exr").is_file(), seed=3, span=3.0)
     (out / ".f_0002.999999.tmp.exr").write_bytes(b"half a frame")
     p = run_cli(*args, "--json", timeout=400)
     assert json.loads(p.stdout)["files"] == [str(out / f"f_{f:04d}.exr") for f in (1, 2, 3)]

@@ -4,12 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-import random
 import shutil
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +14,8 @@ import torch
 from ssgi.model import checkpoint, data, exrio, synthetic
 from ssgi.model.train import Diverged, Trainer
 
-from ..conftest import ROOT, run_cli
-from .conftest import train_cfg
+from ..conftest import run_cli
+from .conftest import kill_at_random, train_cfg
 
 
 def _finite_weights(path: Path) -> bool:
@@ -158,7 +153,7 @@ def test_constant_dataset_trains_without_nan(kind, tmp_path):
 
 # ------------------------------------------------------------------------------------------- cases 9, 10
 
-EPOCHS = 40  # ~50 ms each here: long enough that a kill up to 1 s after epoch 1 lands mid-run
+EPOCHS = 40  # ~50 ms each on an idle machine: a kill up to 1 s after epoch 1 lands mid-run
 TRAIN = ("--variant", "unet_s", "--epochs", str(EPOCHS), "--crop", "16", "--batch", "4", "--crops-per-image", "3",
          "--lr", "3e-3", "--seed", "3", "--threads", "1", "--quiet")
 
@@ -168,30 +163,6 @@ def _state(path: Path) -> tuple[dict, list]:
     hist = [{k: h[k] for k in ("epoch", "step", "loss", "val_psnr", "val_tm_psnr", "val_ssim", "val_loss", "lr")}
             for h in ck["history"]]
     return ck["state_dict"], hist
-
-
-def _kill_at_random(args: list[str], seed: int, after: str) -> tuple[float, str]:
-    """Start `cli.py ARGS`, wait for a stderr line containing ``after``, then SIGKILL it after a delay drawn
-    from random.Random(seed). Returns (delay, stderr so far). Fails if the process ended before the kill."""
-    delay = random.Random(seed).uniform(0.05, 1.0)
-    p = subprocess.Popen([sys.executable, str(ROOT / "cli.py"), *args], stderr=subprocess.PIPE, text=True,
-                         stdout=subprocess.DEVNULL, cwd=ROOT)
-    seen = []
-    try:
-        for line in p.stderr:
-            seen.append(line)
-            if after in line:
-                break
-        time.sleep(delay)
-        assert p.poll() is None, "the job ended before the kill: make it longer\n" + "".join(seen)
-        p.send_signal(signal.SIGKILL)
-        p.wait(30)
-    finally:
-        if p.poll() is None:
-            p.kill()
-            p.wait()
-    assert p.returncode == -signal.SIGKILL
-    return delay, "".join(seen)
 
 
 def test_killed_training_resumes_to_the_same_state_and_is_deterministic(syn_data, tmp_path):
@@ -208,8 +179,8 @@ def test_killed_training_resumes_to_the_same_state_and_is_deterministic(syn_data
     assert all(torch.equal(v, sc[k]) for k, v in sa.items())
 
     b = tmp_path / "b" / "m.pt"
-    delay, _ = _kill_at_random(["train", "--data", str(syn_data), "--out", str(b), *TRAIN], seed=9,
-                               after="epoch 1:")
+    delay = kill_at_random(["train", "--data", str(syn_data), "--out", str(b), *TRAIN],
+                           lambda: checkpoint.last_path(b).is_file(), seed=9, span=1.0)
     done = checkpoint.load(checkpoint.last_path(b))["train_state"]["epoch"]
     assert 1 <= done < EPOCHS, done
     # a kill in the middle of a checkpoint write leaves its temporary file (dead writer's pid in the name)
