@@ -171,11 +171,18 @@ def _foreign_models(src: Path, d: Path) -> dict[str, tuple[Path, str]]:
 def test_foreign_and_broken_models_to_predict(dataset, trained, tmp_path):
     """Case 8: a non-checkpoint file (text, empty, PNG, a bare state_dict, a truncated checkpoint), a
     checkpoint of another architecture or an unknown backbone, of a newer channel spec or checkpoint version,
-    or naming an input group this SSGI does not know: `cli.py predict` names the model file and the fault."""
+    or naming an input group this SSGI does not know: loading it is a UserError naming the model file and the
+    fault, and `cli.py predict` (three of them, to keep the suite fast) exits 2 with that message."""
+    from ssgi.model.errors import UserError
     models = _foreign_models(trained["unet_s"], tmp_path)
+    for name, (model, fault) in models.items():
+        with pytest.raises(UserError) as e:
+            checkpoint.load_predictor(model)
+        assert str(e.value).startswith(f"{model}: ") and fault in str(e.value), (name, str(e.value))
     out = tmp_path / "out" / "pred.exr"
     before = _existing(out)
-    for name, (model, fault) in models.items():
+    for name in ("text", "other_arch", "newer_spec"):
+        model, fault = models[name]
         p = run_cli("predict", "--model", str(model), "--input", str(dataset / "000000.exr"), "--out", str(out),
                     "--json", check=False)
         _user_error(p, f"{model}: ", fault)
