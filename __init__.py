@@ -13,6 +13,8 @@ _CLASS_MODULES = (
     "ssgi_addon.preferences",
     "ops.deps_ops",
     "panels.main_panel",
+    "ops.bake_ops",
+    "panels.bake_panel",
     "ops.node_ops",
     "panels.node_panel",
     "ssgi_addon.training",

@@ -125,13 +125,40 @@ def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> 
     return new_manifest(settings, blender_version)
 
 
-def remove_temp_files(folder) -> int:
-    """Delete temporary files a killed job left behind (never final names). Returns how many."""
+TEMP_RE = re.compile(r"^\.(.+)\.\d+\.tmp$")  # exrio.atomic_path: .FINAL_NAME.PID.tmp
+
+
+def remove_temp_files(folder, owned=None) -> int:
+    """Delete temporary files a killed job left behind (never final names). Returns how many.
+
+    ``owned(final_name) -> bool`` limits this to the files a job owns (a shard's samples and manifest), so that
+    a shard (re)started beside a running one never deletes the other's file in flight."""
     n = 0
     for p in Path(folder).glob(".*.tmp"):
+        m = TEMP_RE.match(p.name)
+        if owned is not None and not (m and owned(m.group(1))):
+            continue
         p.unlink(missing_ok=True)
         n += 1
     return n
+
+
+def check_sample(path, size=None) -> list[str]:
+    """Problems of one sample file (unreadable, missing channels, size other than ``size`` = [w, h],
+    non-finite values), each naming the file. Empty when the sample is complete and sound."""
+    try:
+        g = exrio.read_sample(path)
+    except UserError as e:
+        return [str(e)]
+    problems = []
+    h, w = g["ref"].shape[:2]
+    if size and [w, h] != list(size):
+        problems.append(f"{path}: size {w}x{h}, manifest says {size[0]}x{size[1]}")
+    for k, v in g.items():
+        bad = int((~np.isfinite(v)).sum())
+        if bad:
+            problems.append(f"{path}: {bad} non-finite value(s) in {k}")
+    return problems
 
 
 def merge(folder) -> dict:
@@ -175,19 +202,7 @@ def verify(folder) -> list[str]:
     for name in sorted(set(files) - set(m["samples"])):
         problems.append(f"{files[name]}: not listed in the manifest (incomplete sample?)")
     for name in sorted(set(files) & set(m["samples"])):
-        p = files[name]
-        try:
-            g = exrio.read_sample(p)
-        except UserError as e:
-            problems.append(str(e))
-            continue
-        h, w = g["ref"].shape[:2]
-        if size and [w, h] != list(size):
-            problems.append(f"{p}: size {w}x{h}, manifest says {size[0]}x{size[1]}")
-        for k, v in g.items():
-            bad = int((~np.isfinite(v)).sum())
-            if bad:
-                problems.append(f"{p}: {bad} non-finite value(s) in {k}")
+        problems.extend(check_sample(files[name], size))
     temps = sorted(p.name for p in folder.glob(".*.tmp"))
     if temps:
         problems.append(f"{folder}: temporary file(s) left over: {', '.join(temps[:5])}")

@@ -7,6 +7,7 @@ redoes the rest. ``--shard i/n`` bakes every n-th sample into a shard manifest t
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -34,7 +35,7 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
          "cycles": {"adaptive_sampling": False, "clamp_direct": 0.0, "clamp_indirect": 0.0,
                     "denoiser": "OPENIMAGEDENOISE" if denoise else None,
                     "denoising_input_passes": "RGB_ALBEDO_NORMAL" if denoise else None},
-         "eevee": {"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": "black",
+         "eevee": {"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
                    "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0, "area_size_m": passes.AREA_LIGHT_SIZE}}}
     if first_seed is not None:
         s["first_seed"] = int(first_seed)
@@ -44,10 +45,11 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
     return s
 
 
-def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0) -> tuple[dict, dict]:
+def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0,
+                  keep_sky: bool = True) -> tuple[dict, dict]:
     """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds)."""
     t0 = time.perf_counter()
-    groups = passes.render_gbuffer(scene, EEVEE_SAMPLE_GROUPS, samples=eevee_samples)
+    groups = passes.render_gbuffer(scene, EEVEE_SAMPLE_GROUPS, samples=eevee_samples, keep_sky=keep_sky)
     t1 = time.perf_counter()
     groups.update(passes.render_cycles(scene, ref_samples, seed=ref_seed, denoise=denoise, groups=("ref",)))
     t2 = time.perf_counter()
@@ -89,12 +91,7 @@ def _scene_jobs(scenes, frames):
     return out
 
 
-def bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_samples: int = DEFAULT_REF_SAMPLES,
-         denoise: bool = DEFAULT_DENOISE, eevee_samples: int = DEFAULT_EEVEE_SAMPLES, shard=None, scenes=None,
-         frames=None, progress=None, should_stop=None) -> dict:
-    """Bake a dataset folder (see module doc). ``progress(done, total, info)`` is called after each sample;
-    ``should_stop()`` is checked between samples (the UI's Cancel). Returns a summary dict."""
-    w, h = int(size[0]), int(size[1])
+def _check_args(w, h, count, ref_samples, shard, scenes):
     if w <= 0 or h <= 0:
         raise UserError(f"--size {w}x{h}: width and height must be positive")
     if count is not None and count < 0:
@@ -103,64 +100,233 @@ def bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_samples: in
         raise UserError(f"--ref-samples {ref_samples}: must be positive")
     if shard is not None and not (0 <= shard[0] < shard[1]):
         raise UserError(f"--shard {shard[0]}/{shard[1]}: need 0 <= i < n")
+    for p in scenes or ():  # check every file before touching the folder
+        if not Path(p).is_file():
+            raise UserError(f"--scenes {p}: no such .blend file")
+
+
+def _complete(out, name, manifest) -> bool:
+    """A sample is done when the manifest lists it and its file reads back whole at the dataset's size."""
+    path = ds.sample_path(out, name)
+    if name not in manifest["samples"] or not path.is_file():
+        return False
+    problems = ds.check_sample(path, manifest["settings"].get("size"))
+    for p in problems:
+        print(f"bake: redoing {name}: {p}", file=sys.stderr)
+    return not problems
+
+
+def iter_bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_samples: int = DEFAULT_REF_SAMPLES,
+              denoise: bool = DEFAULT_DENOISE, eevee_samples: int = DEFAULT_EEVEE_SAMPLES, shard=None, scenes=None,
+              frames=None, scene=None):
+    """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
+    after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
+    sample per tick, and stop between any two samples leaving a valid, resumable dataset.
+
+    Events: ``{"event": "start", "total", "todo", "skipped", "removed_temp_files"}``, then per sample
+    ``{"event": "sample", "done", "todo", "sample", "seed", "eevee_s", "cycles_s", "eta_s"}``, then
+    ``{"event": "done", **summary}``. Random rooms are built into ``scene`` (None: a fresh empty file, as
+    the command line does; the operator passes a scratch scene so that the user's file is left alone)."""
+    w, h = int(size[0]), int(size[1])
+    _check_args(w, h, count, ref_samples, shard, scenes)
+    if scenes and scene is not None:
+        raise ValueError("--scenes opens each .blend file: it cannot bake into a given scene")
     out = Path(out)
     if scenes:
         settings = _settings("scenes", (w, h), ref_samples, denoise, eevee_samples, scenes=scenes,
                              frames=list(frames) if frames else None)
-        for p in scenes:  # check every file before touching the folder
-            if not Path(p).is_file():
-                raise UserError(f"--scenes {p}: no such .blend file")
     else:
         settings = _settings("rooms", (w, h), ref_samples, denoise, eevee_samples, first_seed=seed)
+    # list the jobs first: an unreadable .blend or a scene without a camera stops before the folder is touched
+    jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
+    if shard is not None:
+        jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
     manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard)
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
-    removed = ds.remove_temp_files(out)
+    # a folder begun before the sky fix keeps its black sky in `eevee`, so that one dataset is one setting
+    keep_sky = manifest["settings"].get("eevee", {}).get("world") != "black"
 
-    jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
-    if shard is not None:
-        jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
-    todo = [(i, info) for i, info in jobs
-            if not (ds.sample_name(i) in manifest["samples"] and ds.sample_path(out, ds.sample_name(i)).is_file())]
+    def owned(final_name):
+        m = ds.SAMPLE_RE.match(final_name)
+        return final_name == mname if m is None else (shard is None or int(m.group(1)) % shard[1] == shard[0])
+
+    removed = ds.remove_temp_files(out, owned)
+    todo = [(i, info) for i, info in jobs if not _complete(out, ds.sample_name(i), manifest)]
     skipped = len(jobs) - len(todo)
+    if not todo:  # nothing to bake: still leave a manifest (e.g. --count 0)
+        ds.write_manifest(out, manifest, mname)
+    yield {"event": "start", "total": len(jobs), "todo": len(todo), "skipped": skipped,
+           "removed_temp_files": removed}
 
-    scene = None
-    if not scenes:
+    if not scenes and scene is None:
         bpy.ops.wm.read_factory_settings(use_empty=True)
         scene = bpy.context.scene
     current_blend = None
     done = 0
     t_start = time.perf_counter()
     for i, info in todo:
-        if should_stop and should_stop():
-            break
         name = ds.sample_name(i)
         if scenes:
             if info["blend"] != current_blend:
                 scene = _open_blend(info["blend"])
                 current_blend = info["blend"]
-            cam = scene.objects.get(info["camera"])
-            scene.camera = cam
+            scene.camera = scene.objects.get(info["camera"])
             scene.frame_set(info["frame"])
         else:
             room.build_room(info["seed"], scene)
         passes.set_resolution(scene, w, h)
-        groups, timings = render_sample(scene, ref_samples, denoise, eevee_samples, ref_seed=info["seed"])
+        groups, timings = render_sample(scene, ref_samples, denoise, eevee_samples, ref_seed=info["seed"],
+                                        keep_sky=keep_sky)
         exrio.write_sample(ds.sample_path(out, name), groups, half=settings["half"],
                            header={"ssgi_seed": info["seed"], "ssgi_scene": info["scene"]})
-        info = dict(info, timings=timings)
-        manifest["samples"][name] = info
+        manifest["samples"][name] = dict(info, timings=timings)
         manifest["samples"] = dict(sorted(manifest["samples"].items()))
         ds.write_manifest(out, manifest, mname)
         done += 1
+        elapsed = time.perf_counter() - t_start
+        yield {"event": "sample", "done": done, "todo": len(todo), "sample": name, "seed": info["seed"],
+               **timings, "eta_s": round(elapsed / done * (len(todo) - done), 1)}
+    yield {"event": "done", "out": str(out), "baked": done, "skipped": skipped, "total": len(jobs),
+           "removed_temp_files": removed, "seconds": round(time.perf_counter() - t_start, 2), "manifest": mname}
+
+
+def bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_samples: int = DEFAULT_REF_SAMPLES,
+         denoise: bool = DEFAULT_DENOISE, eevee_samples: int = DEFAULT_EEVEE_SAMPLES, shard=None, scenes=None,
+         frames=None, progress=None, should_stop=None, scene=None) -> dict:
+    """Bake a dataset folder in one go (``iter_bake`` to the end). ``progress(done, total, info)`` is called
+    after each sample; ``should_stop()`` is checked between samples. Returns a summary dict."""
+    gen = iter_bake(out, count=count, seed=seed, size=size, ref_samples=ref_samples, denoise=denoise,
+                    eevee_samples=eevee_samples, shard=shard, scenes=scenes, frames=frames, scene=scene)
+    start = next(gen)
+    summary, baked, t_start = None, 0, time.perf_counter()
+    while not (should_stop and should_stop()):
+        ev = next(gen)
+        if ev["event"] == "done":
+            summary = ev
+            break
+        baked = ev["done"]
         if progress:
-            progress(done, len(todo), {"sample": name, **timings})
-    if not todo:  # nothing to bake: still leave a manifest (e.g. --count 0)
-        ds.write_manifest(out, manifest, mname)
-    return {"out": str(out), "baked": done, "skipped": skipped, "total": len(jobs),
-            "removed_temp_files": removed, "seconds": round(time.perf_counter() - t_start, 2),
-            "manifest": mname}
+            progress(ev["done"], ev["todo"], ev)
+    if summary is None:  # stopped between two samples: what is written stays valid and resumable
+        gen.close()
+        summary = {"out": str(out), "baked": baked, "skipped": start["skipped"], "total": start["total"],
+                   "removed_temp_files": start["removed_temp_files"],
+                   "seconds": round(time.perf_counter() - t_start, 2), "manifest": ds.shard_manifest_name(shard),
+                   "cancelled": True}
+    summary = {k: v for k, v in summary.items() if k != "event"}
+    summary.setdefault("cancelled", False)
+    return summary
+
+
+# --------------------------------------------------------------------------------------------- the UI
+
+# State of the UI's bake, drawn by the Bake panel and the status bar (main thread only).
+STATE: dict = {"status": "idle", "progress": 0.0, "done": 0, "todo": 0, "message": "", "cancel": False}
+
+
+def _abspath(p: str) -> str:
+    """The dataset folder setting as an absolute path; a relative one needs a saved .blend file."""
+    out = bpy.path.abspath(p) if p else ""
+    if not out or (p.startswith("//") and not bpy.data.filepath) or not os.path.isabs(out):
+        raise UserError(f"dataset folder {p!r}: save the .blend file first, or choose an absolute folder")
+    return out.rstrip("/\\") or "/"
+
+
+class BakeSession:
+    """The Bake Dataset operator's bake: ``iter_bake`` on Blender's main thread, one sample per ``step()``
+    (bpy is not thread-safe, so it cannot bake in a worker thread). Rooms are built in a scratch scene that
+    is removed at the end, so the user's scenes are never touched. ``cancel()`` stops before the next sample;
+    every sample written so far is complete and listed, so the same settings resume later."""
+
+    def __init__(self, out, count, seed, size, ref_samples, denoise, eevee_samples=DEFAULT_EEVEE_SAMPLES):
+        self.out = str(out)
+        self.scene = bpy.data.scenes.new("SSGI Bake (temporary)")
+        self.summary: dict | None = None
+        try:
+            self._gen = iter_bake(out, count=count, seed=seed, size=size, ref_samples=ref_samples,
+                                  denoise=denoise, eevee_samples=eevee_samples, scene=self.scene)
+            self.start = next(self._gen)  # checks the settings and the folder: errors come now
+        except BaseException:
+            self._remove_scene()
+            raise
+        self._t0 = time.perf_counter()
+        STATE.update(status="running", progress=0.0, done=0, todo=self.start["todo"], total=self.start["total"],
+                     skipped=self.start["skipped"], eta_s=None, message=f"baking into {self.out}", cancel=False)
+
+    @classmethod
+    def from_scene(cls, scene) -> "BakeSession":
+        s = scene.ssgi
+        return cls(_abspath(s.dataset_dir), s.bake_count, s.bake_seed, (s.bake_width, s.bake_height),
+                   s.bake_ref_samples, s.bake_denoise)
+
+    @property
+    def running(self) -> bool:
+        return self.summary is None
+
+    def cancel(self) -> None:
+        STATE["cancel"] = True
+
+    def step(self) -> bool:
+        """Bake the next sample; returns True while samples remain. Errors end the session and re-raise."""
+        if not self.running:
+            return False
+        if STATE.get("cancel"):
+            self._finish("cancelled")
+            return False
+        try:
+            ev = next(self._gen)
+        except BaseException as e:
+            self._finish("error", str(e) if isinstance(e, UserError) else f"{type(e).__name__}: {e}")
+            raise
+        if ev["event"] == "done":
+            self._finish("done")
+            return False
+        STATE.update(done=ev["done"], progress=ev["done"] / max(1, ev["todo"]), eta_s=ev["eta_s"],
+                     message=f"sample {ev['sample']} (EEVEE {ev['eevee_s']:.1f} s, Cycles {ev['cycles_s']:.1f} s)")
+        return True
+
+    def run(self) -> dict:
+        while self.step():
+            pass
+        return self.summary
+
+    def _finish(self, status: str, message: str = "") -> None:
+        self._gen.close()
+        self._remove_scene()
+        done = int(STATE.get("done", 0))
+        self.summary = {"out": self.out, "baked": done, "skipped": self.start["skipped"],
+                        "total": self.start["total"], "status": status,
+                        "seconds": round(time.perf_counter() - self._t0, 2)}
+        STATE.update(status=status, cancel=False, eta_s=None,
+                     message=message or f"{done} baked, {self.start['skipped']} already there -> {self.out}")
+
+    def _remove_scene(self) -> None:
+        sc = self.scene
+        if sc is None or sc.name not in bpy.data.scenes:
+            return
+        room.clear_room(sc)
+        world = sc.world
+        bpy.data.scenes.remove(sc)
+        if world is not None and world.get("ssgi_room") and world.users == 0:
+            bpy.data.worlds.remove(world)
+        self.scene = None
+
+
+def status_text(state: dict) -> str:
+    txt = f"{state.get('done', 0)}/{state.get('todo', 0)} samples"
+    if state.get("eta_s") is not None:
+        txt += f" · ETA {state['eta_s'] / 60:.1f} min"
+    return txt
+
+
+def draw_status(self, context):
+    """Status-bar progress of a running bake (appended to STATUSBAR_HT_header)."""
+    if STATE.get("status") != "running":
+        return
+    self.layout.progress(factor=float(STATE.get("progress", 0.0)), type="BAR",
+                         text="SSGI bake: " + status_text(STATE))
 
 
 # --------------------------------------------------------------------------------------------- command line

@@ -4,9 +4,10 @@ Contract (used by the baker and the compositor node):
 
 - ``configure_gbuffer(scene, groups)`` enables the view-layer passes that ``groups`` need and sets EEVEE up for
   direct light only (no ray tracing, no fast GI, light threshold 0, lights' custom distance large).
-- ``render_gbuffer(scene, groups=None) -> {group: HxWxC float32}``: renders EEVEE with a black world, light
-  probes hidden and hard lights (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their
-  aspect), restores all of that afterwards, and returns the groups top row first with normals in CAMERA space.
+- ``render_gbuffer(scene, groups=None) -> {group: HxWxC float32}``: renders EEVEE with a world that lights
+  nothing (camera rays still see it, so the Combined pass keeps the sky), light probes hidden and hard lights
+  (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
+  afterwards, and returns the groups top row first with normals in CAMERA space.
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
   or with hard lights (to check EEVEE's Diffuse Direct pass against Cycles').
 
@@ -38,7 +39,10 @@ PASS_NAMES: dict[str, str] = {
 }
 EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee")
 AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
-CUTOFF_DISTANCE = 1.0e4
+# Lights' custom cutoff distance (m), needed with light threshold 0 (without a custom distance EEVEE then culls
+# every light: measured black). Not larger: with 1e4, EEVEE lost most cast shadows (its shadow maps use this
+# as their far clip) and Diffuse Direct was 0.54-1.09x Cycles'; 20-1000 m all matched (docs/bake.md).
+CUTOFF_DISTANCE = 1000.0
 DIFFUSE_BOUNCES = 8
 
 
@@ -95,25 +99,60 @@ def hard_lights(scene):
             setattr(li, attr, v)
 
 
-@contextlib.contextmanager
-def _direct_only_world(scene):
-    """A black world and hidden light probes (EEVEE's Diffuse Direct includes world light otherwise)."""
-    old_world = scene.world
-    black = bpy.data.worlds.new("ssgi.black_world")
-    black.color = (0.0, 0.0, 0.0)
-    if black.node_tree is not None:
-        for n in black.node_tree.nodes:
+def _black_world(name: str):
+    w = bpy.data.worlds.new(name)
+    w.color = (0.0, 0.0, 0.0)
+    if w.node_tree is not None:
+        for n in w.node_tree.nodes:
             if n.bl_idname == "ShaderNodeBackground":
                 n.inputs["Strength"].default_value = 0.0
+    return w
+
+
+def _camera_only_world(world, name: str):
+    """A copy of ``world`` that camera rays see as before and that lights nothing: its output shader goes
+    through Mix Shader(Light Path "Is Camera Ray": nothing, the world). None when ``world`` has no shader."""
+    copy = world.copy()
+    copy.name = name
+    nt = copy.node_tree
+    out = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output), None) \
+        if nt is not None else None
+    if out is None or not out.inputs["Surface"].links:
+        bpy.data.worlds.remove(copy)
+        return None
+    src = out.inputs["Surface"].links[0].from_socket
+    path = nt.nodes.new("ShaderNodeLightPath")
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    nt.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    nt.links.new(src, mix.inputs[2])  # input 1 (Fac 0) stays empty: no light
+    nt.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+    return copy
+
+
+# the world during the G-buffer render, recorded in the manifest settings (eevee.world)
+WORLD_MODE = "camera_rays_only"  # "black" before the sky fix: then sky pixels of `eevee` were black
+
+
+@contextlib.contextmanager
+def _direct_only_world(scene, keep_sky: bool = False):
+    """A world that lights nothing, and hidden light probes (EEVEE's Diffuse Direct includes world light
+    otherwise). With ``keep_sky`` camera rays still see the scene's world, so that the Combined pass keeps the
+    artist's background where nothing is hit; else the world is black."""
+    old_world = scene.world
+    tmp = None
+    if keep_sky and old_world is not None:
+        tmp = _camera_only_world(old_world, "ssgi.camera_only_world")
+    if tmp is None:
+        tmp = _black_world("ssgi.black_world")
     probes = [o for o in scene.objects if o.type == "LIGHT_PROBE" and not o.hide_render]
     try:
-        scene.world = black
+        scene.world = tmp
         for o in probes:
             o.hide_render = True
         yield
     finally:
         scene.world = old_world
-        bpy.data.worlds.remove(black)
+        bpy.data.worlds.remove(tmp)
         for o in probes:
             o.hide_render = False
 
@@ -201,15 +240,17 @@ def world_to_camera_normals(n: np.ndarray, rot: np.ndarray) -> np.ndarray:
     return np.einsum("hwi,ij->hwj", n.astype(np.float64), rot).astype(np.float32)
 
 
-def render_gbuffer(scene, groups=None, samples: int = 1) -> dict[str, np.ndarray]:
-    """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space."""
+def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True) -> dict[str, np.ndarray]:
+    """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
+    The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
+    hit (tests/test_bake.py checks that Diffuse Direct is the same either way)."""
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
     for g in groups:
         if g not in EEVEE_GROUPS:
             raise ValueError(f"group {g!r} is not rendered by EEVEE; EEVEE groups: {EEVEE_GROUPS}")
     _check_camera(scene)
     configure_gbuffer(scene, groups, samples=samples)
-    with _direct_only_world(scene), hard_lights(scene):
+    with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
         passes = _render(scene)
     out = {g: _group(passes, g) for g in groups}
     if "normal" in out:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 
 from ..model import variants as _variants
+from . import bake as _bake
 
 
 class SSGI_SceneSettings(bpy.types.PropertyGroup):
@@ -36,6 +37,17 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                          description="The whole time budget of the fit, bake included")
     fit_target_psnr: bpy.props.FloatProperty(name="Target PSNR", default=0.0, min=0.0, soft_max=60.0,
                                              description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
+    # Dataset panel (ops/bake_ops.py): Randomize Room and Bake Dataset (defaults as cli.py randomize / bake)
+    room_seed: bpy.props.IntProperty(name="Room Seed", default=0, min=0, description="Seed of the random room")
+    bake_count: bpy.props.IntProperty(name="Rooms", default=10, min=0, soft_max=2000,
+                                      description="Number of random rooms to bake (room i uses seed + i)")
+    bake_seed: bpy.props.IntProperty(name="First Seed", default=0, min=0, description="Seed of the first room")
+    bake_width: bpy.props.IntProperty(name="Width", default=_bake.DEFAULT_SIZE[0], min=1, max=16384, subtype="PIXEL")
+    bake_height: bpy.props.IntProperty(name="Height", default=_bake.DEFAULT_SIZE[1], min=1, max=16384, subtype="PIXEL")
+    bake_ref_samples: bpy.props.IntProperty(name="Reference Samples", default=_bake.DEFAULT_REF_SAMPLES, min=1,
+                                            soft_max=4096, description="Cycles samples per pixel of the reference")
+    bake_denoise: bpy.props.BoolProperty(name="Denoise Reference", default=_bake.DEFAULT_DENOISE,
+                                         description="Denoise the Cycles reference with OpenImageDenoise")
 
 
 CLASSES = (SSGI_SceneSettings,)

@@ -1,0 +1,147 @@
+"""Operators: Randomize Room, Bake Dataset and Cancel Bake. Thin: ssgi_addon.room and ssgi_addon.bake do the
+work, the same code as ``cli.py randomize`` and ``cli.py bake``.
+
+Bake Dataset touches bpy (it renders), so it cannot run in a worker thread: invoked from the UI it is a modal
+operator that bakes one sample per timer tick on the main thread (``bake.BakeSession.step``), with progress in
+the Dataset panel and the status bar; Esc or Cancel stops before the next sample, leaving a valid dataset that
+the same settings resume. Run from a script (``execute``) it bakes to the end.
+"""
+from __future__ import annotations
+
+import bpy
+
+from ..model.errors import UserError
+from ..ssgi_addon import bake, room
+
+
+class SSGI_OT_randomize_room(bpy.types.Operator):
+    """Build a random room (box, diffuse primitives, lights, camera) from a seed. In a room scene this rebuilds
+    it; elsewhere it makes a new scene, so your scenes are left alone"""
+    bl_idname = "ssgi.randomize_room"
+    bl_label = "Randomize Room"
+    bl_options = {"REGISTER", "UNDO"}
+
+    seed: bpy.props.IntProperty(name="Seed", default=0, min=0, description="Room seed (same seed, same room)")
+
+    def invoke(self, context, event):
+        s = getattr(context.scene, "ssgi", None)
+        if s is not None:
+            self.seed = s.room_seed
+        return self.execute(context)
+
+    def execute(self, context):
+        scene = context.scene
+        if scene is None or "ssgi_room_seed" not in scene:
+            scene = None  # a new scene: never fill the user's own scene with a room
+        scene = room.build_room(self.seed, scene)
+        scene.name = f"SSGI Room {self.seed}"
+        if context.window is not None:
+            context.window.scene = scene
+        if getattr(scene, "ssgi", None) is not None:
+            scene.ssgi.room_seed = self.seed
+        self.report({"INFO"}, f"Room {self.seed}: {len(scene.objects)} objects in scene {scene.name!r}")
+        return {"FINISHED"}
+
+
+class SSGI_OT_bake_dataset(bpy.types.Operator):
+    """Bake random rooms into the dataset folder: EEVEE direct-light passes and a Cycles reference per room.
+    Blender is busy while each sample renders; Esc or Cancel stops after it, and baking again resumes"""
+    bl_idname = "ssgi.bake_dataset"
+    bl_label = "Bake Dataset"
+
+    _session = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and bake.STATE.get("status") != "running"
+
+    def execute(self, context):
+        try:
+            summary = bake.BakeSession.from_scene(context.scene).run()
+        except UserError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, _summary_text(summary))
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        try:
+            self._session = bake.BakeSession.from_scene(context.scene)
+        except UserError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, max(1, self._session.start["todo"]))
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._session.cancel()
+            return self._step(context)
+        if event.type == "TIMER" and event.timer is self._timer:
+            return self._step(context)
+        return {"PASS_THROUGH"}  # the UI stays usable between samples (the panel's Cancel button)
+
+    def _step(self, context):
+        wm = context.window_manager
+        try:
+            more = self._session.step()
+        except Exception as e:  # UserError or a bug: stop cleanly and say what happened
+            self._end(context)
+            self.report({"ERROR"}, str(e) if isinstance(e, UserError) else f"{type(e).__name__}: {e}")
+            return {"CANCELLED"}
+        wm.progress_update(int(bake.STATE.get("done", 0)))
+        for area in context.screen.areas if context.screen else ():
+            area.tag_redraw()
+        if more:
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        self.report({"INFO"}, _summary_text(self._session.summary))
+        return {"FINISHED"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+
+
+def _summary_text(summary: dict) -> str:
+    what = "cancelled after" if summary["status"] == "cancelled" else "baked"
+    return (f"SSGI bake {what} {summary['baked']} sample(s); {summary['skipped']} were already there; "
+            f"{summary['total']} in all -> {summary['out']}")
+
+
+class SSGI_OT_bake_cancel(bpy.types.Operator):
+    """Stop the bake after the current sample; every sample written so far is kept, and baking again resumes"""
+    bl_idname = "ssgi.bake_cancel"
+    bl_label = "Cancel Bake"
+
+    def execute(self, context):
+        if bake.STATE.get("status") != "running":
+            self.report({"WARNING"}, "no bake is running")
+            return {"CANCELLED"}
+        bake.STATE["cancel"] = True
+        return {"FINISHED"}
+
+
+CLASSES = (SSGI_OT_randomize_room, SSGI_OT_bake_dataset, SSGI_OT_bake_cancel)
+
+
+def register_extra():
+    bpy.types.STATUSBAR_HT_header.append(bake.draw_status)
+
+
+def unregister_extra():
+    if bake.STATE.get("status") == "running":
+        bake.STATE["cancel"] = True
+    try:
+        bpy.types.STATUSBAR_HT_header.remove(bake.draw_status)
+    except ValueError:
+        pass
