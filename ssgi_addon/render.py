@@ -352,6 +352,7 @@ class RenderSession:
             rgb = compose(pred, groups, scene.camera.data.clip_end)
             info["t_predict"] = time.perf_counter() - t0
             info["rss_mb_predict"] = peak_rss_mb()
+            info["repaired_pixels"] = self.predictor.last_repaired  # non-finite inputs (normalize.repair)
             t0 = time.perf_counter()
             with preserved(scene):
                 scene.render.use_compositing = True
@@ -400,7 +401,8 @@ class RenderSession:
                 self.results.append(info)
                 log(f"frame {f} ({i + 1}/{len(self.frames)}): passes {info['t_passes']:.2f} s, predict "
                     f"{info['t_predict']:.2f} s, composite {info['t_composite']:.2f} s"
-                    + (f", wrote {info['path']}" if "path" in info else ""))
+                    + (f", wrote {info['path']}" if "path" in info else "")
+                    + (f", repaired {info['repaired_pixels']} non-finite input pixel(s)" if info["repaired_pixels"] else ""))
                 yield info
         finally:
             _ACTIVE -= 1
