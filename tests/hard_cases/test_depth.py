@@ -3,8 +3,8 @@
 A wall 4 m in front of the camera fills the lower part of the frame, a cube stands before it, a small card
 hangs 5 mm in front of the lens, and the sky above the wall is empty (no geometry). Rendered
 with a perspective camera clipped 0.001 .. 1e5, an orthographic camera clipped 0.001 .. 1e5, and a
-perspective camera clipped 0.1 .. 100; then once through the SSGI render path (orthographic camera) with a
-model whose inputs hold depth but no normal."""
+perspective camera clipped 0.1 .. 100; then through the SSGI render path (orthographic, then perspective
+0.001 .. 1e5) with a model whose inputs hold depth but no normal."""
 from __future__ import annotations
 
 import json
@@ -59,6 +59,13 @@ s = R.RenderSession(sc, [1], model=model, write=False, keep_groups=True)
 s.run()
 info = s.results[0]
 np.savez(f"{out_dir}/session.npz", prediction=info["prediction"], **info["groups"])
+meta["session_repaired"] = info["repaired_pixels"]
+# and with the perspective 0.001 .. 1e5 camera, whose sky depth EEVEE writes as +Inf
+cam.data.type = "PERSP"
+s = R.RenderSession(sc, [1], model=model, write=False, keep_groups=True)
+s.run()
+meta["persp_session_repaired"] = s.results[0]["repaired_pixels"]
+meta["persp_session_inf_depth"] = int(np.isinf(s.results[0]["groups"]["depth"]).sum())
 json.dump(meta, open(f"{out_dir}/meta.json", "w"))
 '''
 
@@ -148,3 +155,13 @@ def test_render_path_without_normal_input_keeps_sky_as_background(renders):
     pred = checkpoint.load_predictor(renders["model"]).predict(s)
     from ssgi.ssgi_addon import render as R
     np.testing.assert_allclose(s["prediction"], R.compose(pred, s, 1e5), rtol=1e-5, atol=1e-6)
+
+
+def test_render_path_reports_repaired_pixels(renders):
+    """Cases 1 and 3: the SSGI render path reports the repaired pixel count per frame: 0 for the
+    orthographic render (finite sky depth), and exactly the sky's pixels for the perspective 0.001 .. 1e5
+    render, whose sky depth EEVEE writes as +Inf."""
+    m = renders["meta"]
+    assert m["session_repaired"] == 0
+    assert m["persp_session_inf_depth"] > 100
+    assert m["persp_session_repaired"] == m["persp_session_inf_depth"]
