@@ -96,6 +96,39 @@ def image_metrics(pred, ref, mask=None) -> dict:
                 mse=p.mse, tm_mse=t.mse, pixels=int(p.n))
 
 
+_PEAK_CODE = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+import cli
+pkg = cli.load_package()
+from importlib import import_module
+ck, bench = import_module(pkg.__name__ + ".model.checkpoint"), import_module(pkg.__name__ + ".model.bench")
+w, h, threads = int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
+pred = ck.load_predictor(sys.argv[2], num_threads=threads)
+g = bench.synthetic_groups(w, h)
+before = bench._vm("VmRSS")
+t = time.perf_counter()
+pred.predict(g)
+dt = time.perf_counter() - t
+print("PEAK" + json.dumps(dict(peak_mb=(bench._vm("VmHWM") - before) / 2 ** 20, first_ms=1000 * dt)))
+"""
+
+
+def peak_memory(model, w: int, h: int, threads: int = 1, timeout: float = 600) -> dict:
+    """Peak memory of one prediction at ``w`` x ``h`` in a fresh Python process (nothing to reuse): the
+    process's peak resident set during ``predict`` minus its resident set just before (model and inputs
+    loaded). Also the time of that first, cold prediction."""
+    import subprocess
+
+    root = Path(__file__).resolve().parent.parent
+    p = subprocess.run([sys.executable, "-c", _PEAK_CODE, str(root), str(model), str(w), str(h), str(threads)],
+                       capture_output=True, text=True, timeout=timeout)
+    line = next((l for l in p.stdout.splitlines() if l.startswith("PEAK")), None)
+    if p.returncode != 0 or line is None:
+        return dict(peak_mb=None, error=(p.stderr.strip().splitlines() or ["?"])[-1][:200])
+    return json.loads(line[4:])
+
+
 def temporal_change(preds, refs) -> dict:
     """Mean frame-to-frame change of the error (prediction - reference), after the Reinhard tonemap:
     mean over consecutive frame pairs of mean |e_t - e_{t-1}|, with e = tonemap(pred) - tonemap(ref)."""
@@ -609,7 +642,10 @@ def report_md(raw: dict) -> str:
     L.append("")
     sc = raw.get("scaling")
     if sc:
-        L += ["## Scaling (prediction on synthetic inputs, median of repeats; peak = growth of peak RSS)", "",
+        L += ["## Scaling", "",
+              "Prediction on synthetic inputs of each size: median of repeated warm calls in this process "
+              "(torch threads as in the settings); peak memory: one prediction in a fresh Python process, its "
+              "peak resident set minus the resident set just before (model and inputs already loaded).", "",
               "| model | " + " | ".join(sc["sizes"]) + " |", "|---|" + "---|" * len(sc["sizes"])]
         for k, rows in sc.get("models", {}).items():
             by = {r["size"]: r for r in rows}

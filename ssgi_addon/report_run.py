@@ -175,13 +175,16 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
         chosen = sorted(by_scene)
     else:
         sha = data.manifest_sha256(root)
+        here = str(root.resolve())
+        vals = [set((ck.get("dataset") or {}).get("split", {}).get("val") or ()) for ck in model_ckpts
+                if (ck.get("dataset") or {}).get("manifest_sha256") == sha or (ck.get("dataset") or {}).get("path") == here]
+        vals = [v & set(by_scene) for v in vals if v & set(by_scene)]
         chosen = None
-        for ck in model_ckpts:
-            ds = ck.get("dataset") or {}
-            if ds.get("manifest_sha256") == sha and (ds.get("split") or {}).get("val"):
-                chosen = [sc for sc in ds["split"]["val"] if sc in by_scene]
-                notes.append("evaluation scenes: the validation split recorded in the model checkpoints")
-                break
+        if vals:
+            common = set.intersection(*vals)
+            chosen = sorted(common or vals[0])
+            notes.append(f"evaluation scenes: the validation scenes {'all ' if common else 'the first of '}{len(vals)} "
+                         f"model checkpoint(s) record for this dataset (trained on none of them)")
         if chosen is None:
             if len(by_scene) < 2:
                 chosen = sorted(by_scene)
@@ -387,9 +390,10 @@ class ReportRun:
     # --- after the scenes
 
     def scaling(self, es: EvalScene, sizes) -> dict:
-        """Prediction time and peak memory per model at each size (model.bench on synthetic inputs: the
-        weights and the image content do not change the work), and the G-buffer raster and Cycles 1 spp +
-        OIDN of scene ``es`` at each size."""
+        """Prediction time per model at each size (model.bench.time_predictor in this process, warm, on
+        synthetic inputs: the weights and the image content do not change the work), its peak memory in a fresh
+        process (report.peak_memory), and the G-buffer raster and Cycles 1 spp + OIDN of scene ``es`` at each
+        size."""
         from ..model import bench
         from ..model.cliargs import parse_size
 
@@ -406,6 +410,9 @@ class ReportRun:
             self.log(f"scaling {z}: G-buffer {out['gbuffer'][-1]['seconds']:.2f} s, Cycles 1 spp + OIDN {t:.2f} s")
             for key, (path, pred) in self._model_keys.items():
                 r = bench.time_predictor(pred, w, h, repeats=3 if w * h < 1e6 else 2)
+                r["peak_mb_in_process"] = r.pop("peak_mb")
+                fresh = rep.peak_memory(path, w, h, self.s.threads)
+                r.update(peak_mb=fresh.get("peak_mb"), cold_ms=fresh.get("first_ms"))
                 out["models"].setdefault(key, []).append(dict(size=z, **r))
                 self.log(f"scaling {z}: {Path(path).name} {r['ms']:.0f} ms, peak +{r['peak_mb'] or 0:.0f} MB")
         return out

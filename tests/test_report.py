@@ -221,7 +221,9 @@ def test_dataset_split_follows_the_models_checkpoint(e2e):
     ck = {"dataset": {"manifest_sha256": sha, "split": {"val": ["room4"]}}}
     scenes, over, notes = rr.dataset_scenes(d, [ck])
     assert [s.name for s in scenes] == ["room4"] and over["size"] == (64, 36) and over["ref_samples"] == 16
-    assert "recorded in the model checkpoints" in notes[0]
+    assert "validation scenes all 1 model checkpoint(s) record" in notes[0]
+    ck2 = {"dataset": {"path": str(d.resolve()), "split": {"val": ["room3", "room4"]}}}  # same folder, grown since
+    assert [s.name for s in rr.dataset_scenes(d, [ck, ck2])[0]] == ["room4"]  # trained on by neither model
     ck["dataset"]["manifest_sha256"] = "another dataset"
     scenes, _, notes = rr.dataset_scenes(d, [ck])
     assert len(scenes) == 1 and "split_scenes" in notes[0]  # 2 scenes: one goes to validation
