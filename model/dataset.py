@@ -233,11 +233,21 @@ def _tile(group: str, a: np.ndarray) -> np.ndarray:
     return tonemap8(a[..., :3])
 
 
+def load_samples_manifest(folder) -> dict:
+    """manifest.json, or while a farm bake runs (no merge yet) the union of its shard manifests, read-only."""
+    folder = Path(folder)
+    parts = sorted(folder.glob("manifest.shard-*.json"))
+    if (folder / MANIFEST).exists() or not parts:
+        return load_manifest(folder)
+    ms = [read_manifest(p) for p in parts]
+    return {**ms[0], "samples": dict(sorted(kv for m in ms for kv in m["samples"].items()))}
+
+
 def preview(folder, out, max_samples: int = 12) -> dict:
     """Contact sheet: one row per sample, columns = the stored groups (tonemapped), reference last."""
     from PIL import Image, ImageDraw
 
-    m = load_manifest(folder)
+    m = load_samples_manifest(folder)
     names = sorted(m["samples"])[:max_samples]
     if not names:
         raise UserError(f"{folder}: dataset has no samples to preview")
