@@ -175,10 +175,21 @@ def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None =
     if ref_samples:
         cmd += ["--ref-samples", str(ref_samples)]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_child_env())
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_child_env(),
+                       preexec_fn=_die_with_parent)
     if p.returncode != 0:
         tail = "\n".join(l for l in p.stderr.splitlines() if "EGL" not in l)[-1500:]
         raise UserError(f"baking the views failed (exit {p.returncode}): {tail.strip() or p.stdout[-500:]}")
+
+
+def _die_with_parent() -> None:
+    """In the baker's process: end it (SIGTERM) when the fit process dies, even by SIGKILL (Linux prctl
+    PR_SET_PDEATHSIG), so a killed fit leaves no baker running."""
+    try:
+        import ctypes
+        ctypes.CDLL(None).prctl(1, signal.SIGTERM)
+    except (OSError, AttributeError):
+        pass
 
 
 def _child_env() -> dict:

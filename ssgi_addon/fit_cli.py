@@ -23,6 +23,9 @@ from ..model import cliargs
 from ..model.errors import UserError
 
 
+MIN_FIT_MINUTES = 0.5
+
+
 def _command() -> str:
     return " ".join(shlex.quote(a) for a in [sys.executable] + sys.argv)
 
@@ -110,8 +113,9 @@ def _run(args) -> dict:
     if args.init and not Path(args.init).is_file():
         raise UserError(f"--init {args.init}: no such model file")
     left = 60.0 * args.minutes - (time.perf_counter() - t0)
-    fit_minutes = max(left, 0.1 * 60.0 * args.minutes) / 60.0
-    if left < 0.1 * 60.0 * args.minutes:
+    floor = max(0.1 * 60.0 * args.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
+    fit_minutes = max(left, floor) / 60.0
+    if left < floor:
         print(f"fit: the bake took {bake_s / 60:.2f} of {args.minutes:g} min; fitting gets {fit_minutes:.2f} min "
               "(the whole fit will run over the budget)", file=sys.stderr, flush=True)
     cfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,

@@ -253,9 +253,9 @@ bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 ''', timeout=120)
     sha = hashlib.sha256(blend.read_bytes()).hexdigest()
     model = d / "room_fit.pt"
-    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--views", "6", "--minutes", "1.5", "--size", "64x36",
+    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--views", "6", "--minutes", "1.2", "--size", "64x36",
                 "--ref-samples", "4", "--init", str(generic), "--drop-tol", str(ABLATE_ALL), "--min-run-seconds", "1",
-                "--threads", "1", "--crop", "32", "--json", timeout=420)
+                "--threads", "1", "--crop", "32", "--json", timeout=900)
     summary = json.loads(p.stdout)
     r = run_cli("render", "--blend", str(blend), "--setup", "--model", str(model), "--out", str(d / "ssgi_####"),
                 "--frames", "2", "--save-passes", str(d / "passes"), "--json", timeout=300)
@@ -374,6 +374,9 @@ t = time.time()
 while job.pump() and job.state.get("phase") is None and time.time() - t < 120:
     time.sleep(0.05)
 r["phase_at_cancel"] = job.state.get("phase")
+from tests import ui_recorder
+from ssgi.panels.fit_panel import SSGI_PT_fit
+r["running_ops"] = [o[0] for o in ui_recorder.draw(SSGI_PT_fit).operators()]
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
 r["cancel_status"] = job.state["status"]
@@ -390,6 +393,8 @@ while job.pump() and time.time() - t < 400:
         phases.append(ph)
     prog.append(float(job.state.get("progress", 0)))
     time.sleep(0.05)
+rec = ui_recorder.draw(SSGI_PT_fit)
+r["done_labels"], r["done_ops"] = rec.labels(), [o[0] for o in rec.operators()]
 r.update(status=job.state["status"], error=job.error, phases=phases, model_path=sc.ssgi.model_path,
          inputs=(job.result or {{}}).get("inputs"), max_progress=max(prog))
 json.dump(r, open({str(res)!r}, "w"))
@@ -403,3 +408,9 @@ json.dump(r, open({str(res)!r}, "w"))
     ph = r["phases"]
     assert ph[:2] == ["views", "bake"] and ph[-1] == "done" and "size" in ph, ph
     assert r["inputs"] == list(checkpoint.load(out)["inputs"])
+    # the panel: Cancel while it runs; afterwards the button, the kept inputs and the verdict
+    assert r["running_ops"] == ["ssgi.cancel_job"]
+    assert r["done_ops"] == ["ssgi.fit_scene"]
+    assert f"Inputs: {', '.join(r['inputs'])}" in r["done_labels"]
+    verdict = checkpoint.load(out)["fit"]["verdict"]
+    assert any(l and l in verdict for l in r["done_labels"][1:]), r["done_labels"]
