@@ -10,6 +10,7 @@ A pixel counts as *repaired* once if any of its channels in any group was non-fi
 Negative light is clamped to 0 (light is >= 0); albedo and AO are clamped to [0, 1].
 
 Normalisation (``to_inputs``), per group kind (``channels.Group.kind``):
+    scene  (derived)         whole-image statistics (mean log1p(lit), mean albedo, geometry fraction), as is
     color  (albedo)          as is, in [0, 1]
     normal (camera space)    as is, in [-1, 1]
     unit   (ao)              as is, in [0, 1]
@@ -46,6 +47,8 @@ def describe() -> dict:
 
 
 def _kind(name: str) -> str:
+    if name == "scene":
+        return "stat"  # already normalised statistics
     return ch.GROUPS[name].kind if name in ch.GROUPS else "light"  # derived groups (lit) are light
 
 
@@ -118,6 +121,16 @@ def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
     """A derived group from its (repaired) stored groups."""
     if name == "lit":
         return np.minimum(groups["albedo"] * groups["direct"], LIGHT_MAX).astype(np.float32)
+    if name == "scene":
+        alb, lit = groups["albedo"], derived("lit", groups)
+        geo = np.abs(groups["normal"]).sum(-1) > 0.5 if "normal" in groups else np.ones(alb.shape[:2], bool)
+        stats = np.zeros(7, np.float32)
+        if geo.any():
+            # sorted float64 sums: the same bits for the image and its mirror (flip augmentation commutes)
+            stats[0:3] = np.sort(np.log1p(lit[geo]), axis=0).sum(0, dtype=np.float64) / geo.sum()
+            stats[3:6] = np.sort(alb[geo], axis=0).sum(0, dtype=np.float64) / geo.sum()
+            stats[6] = geo.mean()
+        return np.broadcast_to(stats, alb.shape[:2] + (7,)).astype(np.float32)
     raise KeyError(name)
 
 
