@@ -72,7 +72,8 @@ def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, o
         for g in drop:
             zeroed[:, lay[g]] = 0
         with torch.inference_mode():
-            np.testing.assert_allclose(small(x[:, kept]).numpy(), net(zeroed).numpy(), rtol=1e-4, atol=1e-5)
+            want = net(zeroed).numpy()  # equal up to float summation order (outputs reach ~50 here)
+            np.testing.assert_allclose(small(x[:, kept]).numpy(), want, rtol=1e-4, atol=1e-5 * np.abs(want).max())
             assert not torch.allclose(net(x), net(zeroed))  # the dropped inputs did matter before
     with pytest.raises(UserError, match="not a sub-sequence"):
         fit.drop_inputs(net, ("direct", "albedo"))
