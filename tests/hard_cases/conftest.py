@@ -57,7 +57,7 @@ def groups(w: int, h: int, seed: int = 0, light: float = 1.0) -> dict[str, np.nd
     return g
 
 
-def kill_at_random(args: list[str], ready, seed: int, span: float, timeout: float = 300) -> float:
+def kill_at_random(args: list[str], ready, seed: int, span: float, timeout: float = 800) -> float:
     """Start `cli.py ARGS`; once ``ready()`` is true, wait a delay drawn from random.Random(seed) in
     [0, span) seconds and SIGKILL it. Fails if it ended before the kill. Returns the delay."""
     delay = random.Random(seed).uniform(0.0, span)

@@ -77,7 +77,7 @@ def renders(tmp_path_factory):
     net = network.build(network.arch_for("unet_s", NO_NORMAL))
     model = d / "no_normal.pt"
     checkpoint.save(model, checkpoint.make(net, "network", command="hard-cases depth"))
-    run_py(RENDER, str(d), str(model), timeout=400)
+    run_py(RENDER, str(d), str(model), timeout=850)
     out = {k: dict(np.load(d / f"{k}.npz")) for k in ("persp_1e5", "ortho_1e5", "persp_100", "session")}
     out["meta"] = json.loads((d / "meta.json").read_text())
     out["model"] = model

@@ -35,10 +35,10 @@ def test_killed_bake_reruns_to_a_valid_dataset_with_the_same_pixels(tmp_path):
     is complete, `cli.py verify` passes, no temporary file is left, and every pixel of every sample equals
     an uninterrupted bake with the same seeds (same machine, same Blender)."""
     a, b = tmp_path / "a", tmp_path / "b"
-    run_cli("bake", "--out", str(a), *BAKE, timeout=400)
+    run_cli("bake", "--out", str(a), *BAKE, timeout=850)
     kill_at_random(["bake", "--out", str(b), *BAKE], lambda: (b / "000000.exr").is_file(), seed=5, span=4.0)
     (b / ".000002.exr.999999.tmp").write_bytes(b"half a sample")
-    p = run_cli("bake", "--out", str(b), *BAKE, "--json", timeout=400)
+    p = run_cli("bake", "--out", str(b), *BAKE, "--json", timeout=850)
     res = json.loads(p.stdout)
     assert res["baked"] + res["skipped"] == 3 and res["skipped"] >= 1 and res["removed_temp_files"] >= 1
     v = run_cli("verify", str(b), "--json", check=False)
@@ -67,7 +67,7 @@ def test_killed_render_reruns_to_complete_valid_frames(room, tmp_path):
     args = ["render", "--blend", str(room["blend"]), "--out", str(out / "f_####"), "--frames", "1-3", "--samples", "1"]
     kill_at_random(args, lambda: (out / "f_0001.exr").is_file(), seed=3, span=3.0)
     (out / ".f_0002.999999.tmp.exr").write_bytes(b"half a frame")
-    p = run_cli(*args, "--json", timeout=400)
+    p = run_cli(*args, "--json", timeout=850)
     assert json.loads(p.stdout)["files"] == [str(out / f"f_{f:04d}.exr") for f in (1, 2, 3)]
     for f in (1, 2, 3):
         planes, _ = exrio.read_exr(out / f"f_{f:04d}.exr")
