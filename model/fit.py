@@ -58,7 +58,7 @@ SIZE_SHARE = 0.5  # of the budget, for the size search
 ABLATION_SHARE = 0.3  # ... for the input ablation (control + one run per droppable group)
 MIN_RUN_S = 5.0  # a run shorter than this is not started
 # input groups tried for removal, in this order (cheapest pass to lose first)
-DROP_ORDER = ("ao", "depth", "normal", "lit", "direct", "albedo")
+DROP_ORDER = ("scene", "ao", "depth", "normal", "lit", "direct", "albedo")
 HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
 
 # smallest first: (name, variant, overrides of network.arch_for). Narrow full-resolution levels: at 960x540
@@ -81,7 +81,8 @@ class FitConfig:
     target_psnr: float | None = None
     init: str | None = None
     ladder: list = field(default_factory=lambda: [list(x) for x in LADDER])
-    inputs: str = ch.format_spec(ch.INPUT_GROUPS)  # the inputs scratch candidates start from
+    # the inputs scratch candidates start from: every stored pass ("scene" is derived; the shipped model has it)
+    inputs: str = ch.format_spec(tuple(g for g in ch.INPUT_GROUPS if g != "scene"))
     drop_tol: float = 0.1
     batch: int = 16
     crop: int = 64
