@@ -470,10 +470,11 @@ class Fitter:
             if g not in groups:
                 self.rows.append(dict(phase="inputs", group=g, spec=None, decision=f"kept (the {head} head needs it)"))
         per = min(ABLATION_SHARE * self.budget.total, self.budget.left * 0.6) / (len(groups) + 2) if groups else 0.0
-        if not groups or per < cfg.min_run_s:
-            self.rows.append(dict(phase="inputs", group="(all)", decision="nothing to drop" if not groups
-                                  else "not measured (budget spent)"))
+        if not groups:
+            self.rows.append(dict(phase="inputs", group="(all)", decision="nothing to drop"))
             return net, spec, None
+        # the ablation always runs, each run at least min_run_s: at most (groups + 2) * min_run_s over budget
+        per = max(per, cfg.min_run_s)
 
         def row(group, sp, r, delta, decision):
             self.rows.append(dict(phase="inputs", group=group, spec=ch.format_spec(sp), passes=list(ch.required_passes(sp)),

@@ -278,6 +278,7 @@ def start(scene, blend_copy: str, out: str, views: int, minutes: float, target_p
         for t in readers:
             t.start()
         tail: list[str] = []
+        phases: list[str] = []  # every phase seen, in order (job.state keeps only the latest report)
         while True:
             if job.cancelled:
                 _terminate(proc)
@@ -290,7 +291,9 @@ def start(scene, blend_copy: str, out: str, views: int, minutes: float, target_p
                 continue
             d = parse_progress(line.rstrip("\n"))
             if d is not None:
-                job.report(**d)
+                if d.get("phase") and (not phases or phases[-1] != d["phase"]):
+                    phases.append(d["phase"])
+                job.report(phases=list(phases), **d)
             elif line.strip() and "EGL" not in line:
                 tail.append(line.rstrip())
                 del tail[:-20]
