@@ -112,8 +112,11 @@ def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None) -> np.n
     out = np.ones(z.shape, dtype=np.float32)
     zg = z[geo]
     if zg.size:
-        m = np.float32(np.median(zg))
-        out[geo] = zg / (zg + m)
+        # float64, then rounded once to float32: monotone in z (float32 division of z / (z + m) is not: measured
+        # 16384 -> 0.9999999 < 10923 -> 0.99999994 with m = 0.001)
+        z64 = zg.astype(np.float64)
+        m = np.float64(np.float32(np.median(zg)))
+        out[geo] = (z64 / (z64 + m)).astype(np.float32)
     return out[..., None]
 
 
