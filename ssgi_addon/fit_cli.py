@@ -78,16 +78,11 @@ def _run(args) -> dict:
         if not args.blend:
             raise UserError("give --blend FILE (the scene to fit) or --data DIR (views baked before)")
         import bpy
-        blend = Path(args.blend).expanduser().resolve()
-        if not blend.is_file():
-            raise UserError(f"--blend {args.blend}: no such .blend file")
-        try:
-            bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
-        except RuntimeError as e:
-            raise UserError(f"--blend {blend}: Blender could not open it ({str(e).strip().splitlines()[-1]})") from None
-        scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
-        if scene is None:
-            raise UserError(f"--scene {args.scene}: no such scene in {blend}")
+
+        from .blendfile import check_blend, open_blend, pick_scene
+        blend = check_blend(args.blend)
+        open_blend(blend)
+        scene = pick_scene(blend, args.scene)
         if bpy.context.window is not None and bpy.context.scene != scene:
             bpy.context.window.scene = scene
         progress(dict(phase="views", message="adding jittered cameras", progress=0.0))

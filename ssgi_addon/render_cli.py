@@ -13,7 +13,6 @@ from pathlib import Path
 
 from ..model import cliargs
 from ..model.exrio import stdout_to_stderr  # noqa: F401  (bake.py imports it from here)
-from ..model.errors import UserError
 
 
 def run(args) -> dict:
@@ -22,21 +21,12 @@ def run(args) -> dict:
 
 
 def _run(args) -> dict:
-    import bpy
-
     from . import render as ssgi_render
+    from .blendfile import open_blend, pick_scene
 
     blend = Path(args.blend).expanduser()
-    if not blend.is_file():
-        raise UserError(f"--blend {args.blend}: no such .blend file")
-    try:
-        bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
-    except RuntimeError as e:
-        raise UserError(f"--blend {blend}: Blender could not open it ({str(e).strip().splitlines()[-1]})") from None
-    scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
-    if scene is None:
-        raise UserError(f"--scene {args.scene}: no such scene in {blend}; scenes: "
-                        f"{', '.join(s.name for s in bpy.data.scenes)}")
+    open_blend(args.blend)
+    scene = pick_scene(blend, args.scene)
     if args.setup:
         from ..ops.node_ops import setup_scene
         setup_scene(scene, args.model)

@@ -42,7 +42,7 @@ from ..model import channels as ch
 from ..model import metrics, normalize
 from ..model import report as rep
 from ..model.errors import UserError
-from . import passes, room
+from . import blendfile, passes, room
 
 # EEVEE's own GI: ray tracing + fast GI (horizon scan) on. "default": Blender's default tracing settings;
 # "high": full-resolution tracing and fast GI, more rays and steps, best screen-trace quality.
@@ -131,13 +131,8 @@ def _room_opener(seed: int, size):
 
 def _blend_opener(path: Path, scene_name: str | None, camera: str | None, frame: int | None, size):
     def open_():
-        try:
-            bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
-        except RuntimeError as e:
-            raise UserError(f"{path}: Blender could not open it ({str(e).strip().splitlines()[-1]})") from None
-        scene = bpy.data.scenes.get(scene_name) if scene_name else bpy.context.scene
-        if scene is None:
-            raise UserError(f"{path}: no scene {scene_name!r}")
+        blendfile.open_blend(path, arg=None)
+        scene = blendfile.pick_scene(path, scene_name, arg=None)
         if camera:
             cam = scene.objects.get(camera)
             if cam is None or cam.type != "CAMERA":

@@ -73,3 +73,57 @@ def test_help_lists_the_foundation_subcommands():
     p = run_cli("--help")
     for name in ("info", "demo"):
         assert name in p.stdout
+
+
+_OPEN_BLEND = r'''
+import json, sys
+from pathlib import Path
+import bpy
+from ssgi.model.errors import UserError
+from ssgi.ssgi_addon import blendfile
+d = Path(sys.argv[1])
+(d / "junk.blend").write_bytes(b"BLENDER-v500 but not really" * 10)
+(d / "folder.blend").mkdir()
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.context.scene.name = "Shot"
+bpy.ops.wm.save_as_mainfile(filepath=str(d / "good.blend"))
+bpy.ops.wm.read_factory_settings(use_empty=True)
+out = {}
+for name, call in (("missing", lambda: blendfile.open_blend(d / "gone.blend")),
+                   ("folder", lambda: blendfile.open_blend(d / "folder.blend")),
+                   ("junk", lambda: blendfile.open_blend(d / "junk.blend", arg="--scenes")),
+                   ("no_arg", lambda: blendfile.open_blend(d / "junk.blend", arg=None)),
+                   ("good", lambda: blendfile.open_blend(d / "good.blend").name),
+                   ("scene", lambda: blendfile.pick_scene(d / "good.blend", "Nope").name),
+                   ("scene_ok", lambda: blendfile.pick_scene(d / "good.blend", "Shot").name)):
+    try:
+        out[name] = ["ok", call()]
+    except UserError as e:
+        out[name] = ["error", str(e)]
+print("JSON" + json.dumps(out))
+'''
+
+
+def test_open_blend_errors_name_the_file_and_the_fault(tmp_path):
+    """ssgi_addon/blendfile.py, the one way fit, render and report open a user's .blend."""
+    r = json.loads(run_py(_OPEN_BLEND, str(tmp_path), timeout=300).stdout.split("JSON", 1)[1])
+    assert r["missing"] == ["error", f"--blend {tmp_path / 'gone.blend'}: no such .blend file"]
+    assert r["folder"] == ["error", f"--blend {tmp_path / 'folder.blend'}: is a folder, not a .blend file"]
+    kind, msg = r["junk"]
+    assert kind == "error" and msg.startswith(f"--scenes {tmp_path / 'junk.blend'}: not a readable .blend file")
+    assert "Blender could not open it" in msg
+    kind, msg = r["no_arg"]
+    assert kind == "error" and msg.startswith(f"{tmp_path / 'junk.blend'}: not a readable .blend file")
+    assert r["good"] == ["ok", "Shot"]
+    assert r["scene"] == ["error", f"--scene Nope: no such scene in {tmp_path / 'good.blend'}; scenes: Shot"]
+    assert r["scene_ok"] == ["ok", "Shot"]
+
+
+def test_render_refuses_a_bad_blend_with_exit_2(tmp_path):
+    junk = tmp_path / "junk.blend"
+    junk.write_bytes(b"not a blend file at all")
+    p = run_cli("render", "--blend", str(junk), check=False, timeout=300)
+    assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr[-2000:]
+    assert f"--blend {junk}: not a readable .blend file" in p.stderr
+    p = run_cli("render", "--blend", str(tmp_path), check=False, timeout=300)
+    assert p.returncode == 2 and f"--blend {tmp_path}: is a folder" in p.stderr
