@@ -5,6 +5,7 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon import bake
+from . import draw_error, draw_job, job_running
 
 
 class SSGI_PT_bake(bpy.types.Panel):
@@ -22,7 +23,7 @@ class SSGI_PT_bake(bpy.types.Panel):
         if s is None:
             return
         st = bake.STATE
-        running = st.get("status") == "running"
+        running = job_running(st)
 
         row = layout.row(align=True)
         row.enabled = not running
@@ -41,16 +42,11 @@ class SSGI_PT_bake(bpy.types.Panel):
         col.prop(s, "bake_ref_samples")
         col.prop(s, "bake_denoise")
 
-        if running:
-            layout.progress(factor=float(st.get("progress", 0.0)), type="BAR", text=bake.status_text(st))
-            layout.label(text=st.get("message", "")[:120])
-            layout.operator("ssgi.bake_cancel", icon="CANCEL")
+        if draw_job(layout, st, bake.status_text, "ssgi.bake_cancel", lines=lambda st: [st.get("message", "")[:120]]):
             return
         layout.operator("ssgi.bake_dataset", icon="RENDER_STILL")
         status = st.get("status")
-        if status == "error":
-            layout.label(text=st.get("message", "error")[:120], icon="ERROR")
-        elif status in ("done", "cancelled"):
+        if not draw_error(layout, st) and status in ("done", "cancelled"):
             layout.label(text=f"{status.capitalize()}: {st.get('message', '')}"[:120],
                          icon="CHECKMARK" if status == "done" else "INFO")
 

@@ -6,6 +6,7 @@ import bpy
 
 from ..ssgi_addon import fit as sfit
 from ..ssgi_addon import jobs
+from . import draw_error, draw_job, job_running
 
 
 class SSGI_PT_fit(bpy.types.Panel):
@@ -23,7 +24,7 @@ class SSGI_PT_fit(bpy.types.Panel):
         if s is None:
             return
         job = jobs.get(sfit.JOB)
-        running = job is not None and not job.done
+        running = job_running(job)
         col = layout.column()
         col.enabled = not running
         col.prop(s, "fit_out")
@@ -31,17 +32,12 @@ class SSGI_PT_fit(bpy.types.Panel):
         row.prop(s, "fit_views")
         row.prop(s, "fit_minutes")
         col.prop(s, "fit_target_psnr")
-        if running:
-            layout.progress(factor=float(job.state.get("progress", 0.0)), type="BAR",
-                            text=sfit.status_text(job.state)[:120])
-            layout.operator("ssgi.cancel_job", text="Cancel", icon="CANCEL").job = sfit.JOB
+        if draw_job(layout, job, sfit.status_text, "ssgi.cancel_job", job_name=sfit.JOB, cancel_text="Cancel", limit=120):
             return
         layout.operator("ssgi.fit_scene", icon="PLAY")
-        if job is not None:
+        if job is not None and not draw_error(layout, job):
             st = job.state.get("status")
-            if st == "error":
-                layout.label(text=(job.state.get("message") or "error")[:120], icon="ERROR")
-            elif st == "cancelled":
+            if st == "cancelled":
                 layout.label(text="Cancelled; no model written", icon="INFO")
             elif st == "done" and job.result:
                 layout.label(text=f"Inputs: {', '.join(job.result.get('inputs') or [])}", icon="CHECKMARK")

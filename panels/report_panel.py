@@ -5,6 +5,7 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon import jobs, report_cli
+from . import draw_error, draw_job, job_running
 
 
 class SSGI_PT_report(bpy.types.Panel):
@@ -22,24 +23,19 @@ class SSGI_PT_report(bpy.types.Panel):
         if s is None:
             return
         job = jobs.get(report_cli.JOB)
-        running = job is not None and not job.done
+        running = job_running(job)
         col = layout.column()
         col.enabled = not running
         col.prop(s, "report_models")
         col.prop(s, "report_out")
         col.prop(s, "report_max_scenes")
-        if running:
-            layout.progress(factor=float(job.state.get("progress", 0.0)), type="BAR",
-                            text=report_cli.status_text(job.state))
-            layout.operator("ssgi.cancel_job", icon="CANCEL").job = report_cli.JOB
+        if draw_job(layout, job, report_cli.status_text, "ssgi.cancel_job", job_name=report_cli.JOB):
             return
         layout.operator("ssgi.report", icon="SORTTIME")
-        if job is None:
+        if job is None or draw_error(layout, job, limit=140):
             return
         st = job.state.get("status")
-        if st == "error":
-            layout.label(text=(job.state.get("message") or "error")[:140], icon="ERROR")
-        elif st == "cancelled":
+        if st == "cancelled":
             layout.label(text="Cancelled", icon="INFO")
         elif st == "done" and job.result:
             layout.label(text=f"Written: {job.result['files'].get('md', '')}", icon="CHECKMARK")

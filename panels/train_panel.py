@@ -5,6 +5,7 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon import jobs, training
+from . import draw_error, draw_job, job_running
 
 
 class SSGI_PT_train(bpy.types.Panel):
@@ -22,7 +23,7 @@ class SSGI_PT_train(bpy.types.Panel):
         if s is None:
             return
         job = jobs.get(training.JOB)
-        running = job is not None and not job.done
+        running = job_running(job)
         col = layout.column()
         col.enabled = not running
         col.prop(s, "dataset_dir")
@@ -31,24 +32,22 @@ class SSGI_PT_train(bpy.types.Panel):
         row.prop(s, "train_variant")
         row.prop(s, "train_minutes")
         col.prop(s, "train_resume")
-        if running:
-            layout.progress(factor=float(job.state.get("progress", 0.0)), type="BAR",
-                            text=training.status_text(job.state))
-            if job.state.get("best_psnr") is not None:
-                layout.label(text=f"Best validation PSNR {job.state['best_psnr']:.2f} dB")
-            layout.operator("ssgi.train_cancel", icon="CANCEL")
+        if draw_job(layout, job, training.status_text, "ssgi.train_cancel", lines=_best_line):
             return
         layout.operator("ssgi.train", icon="PLAY")
-        if job is not None:
+        if job is not None and not draw_error(layout, job):
             st = job.state.get("status")
-            if st == "error":
-                layout.label(text=(job.state.get("message") or "error")[:120], icon="ERROR")
-            elif st in ("done", "cancelled"):
+            if st in ("done", "cancelled"):
                 best = (job.result or {}).get("best", {}).get("val_psnr", job.state.get("best_psnr"))
                 txt = f"{st.capitalize()} after epoch {job.state.get('epoch', 0)}"
                 if best is not None:
                     txt += f", best val PSNR {best:.2f} dB"
                 layout.label(text=txt, icon="CHECKMARK" if st == "done" else "INFO")
+
+
+def _best_line(state) -> list[str]:
+    best = state.get("best_psnr")
+    return [] if best is None else [f"Best validation PSNR {best:.2f} dB"]
 
 
 CLASSES = (SSGI_PT_train,)
