@@ -12,6 +12,7 @@ import bpy
 
 from ..model.errors import UserError
 from ..ssgi_addon import bake, room
+from . import TimerSteps
 
 
 class SSGI_OT_randomize_room(bpy.types.Operator):
@@ -43,14 +44,13 @@ class SSGI_OT_randomize_room(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class SSGI_OT_bake_dataset(bpy.types.Operator):
+class SSGI_OT_bake_dataset(TimerSteps, bpy.types.Operator):
     """Bake random rooms into the dataset folder: EEVEE direct-light passes and a Cycles reference per room.
     Blender is busy while each sample renders; Esc or Cancel stops after it, and baking again resumes"""
     bl_idname = "ssgi.bake_dataset"
     bl_label = "Bake Dataset"
 
     _session = None
-    _timer = None
 
     @classmethod
     def poll(cls, context):
@@ -73,43 +73,17 @@ class SSGI_OT_bake_dataset(bpy.types.Operator):
         except UserError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
-        wm = context.window_manager
-        wm.progress_begin(0, max(1, self._session.start["todo"]))
-        self._timer = wm.event_timer_add(0.05, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return self.start_steps(context, self._session.start["todo"])
 
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._session.cancel()
-            return self._step(context)
-        if event.type == "TIMER" and event.timer is self._timer:
-            return self._step(context)
-        return {"PASS_THROUGH"}  # the UI stays usable between samples (the panel's Cancel button)
+    # TimerSteps: one sample per timer tick
+    def step_work(self, context):
+        return self._session.step(), bake.STATE.get("done", 0)
 
-    def _step(self, context):
-        wm = context.window_manager
-        try:
-            more = self._session.step()
-        except Exception as e:  # UserError or a bug: stop cleanly and say what happened
-            self._end(context)
-            self.report({"ERROR"}, str(e) if isinstance(e, UserError) else f"{type(e).__name__}: {e}")
-            return {"CANCELLED"}
-        wm.progress_update(int(bake.STATE.get("done", 0)))
-        for area in context.screen.areas if context.screen else ():
-            area.tag_redraw()
-        if more:
-            return {"RUNNING_MODAL"}
-        self._end(context)
+    def stop_request(self):
+        self._session.cancel()
+
+    def steps_finished(self, context):
         self.report({"INFO"}, _summary_text(self._session.summary))
-        return {"FINISHED"}
-
-    def _end(self, context):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
 
 
 def _summary_text(summary: dict) -> str:

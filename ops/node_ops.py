@@ -12,6 +12,7 @@ from ..model import channels as ch
 from ..model.errors import UserError
 from ..ssgi_addon import node as ssgi_node
 from ..ssgi_addon import render as ssgi_render
+from . import TimerSteps
 
 
 def _compositor_tree(context):
@@ -81,7 +82,7 @@ class SSGI_OT_setup(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class SSGI_OT_render(bpy.types.Operator):
+class SSGI_OT_render(TimerSteps, bpy.types.Operator):
     """Render with SSGI: EEVEE passes -> predicted GI -> your compositor -> the output path"""
     bl_idname = "ssgi.render"
     bl_label = "Render SSGI"
@@ -101,7 +102,6 @@ class SSGI_OT_render(bpy.types.Operator):
 
     _session = None
     _iter = None
-    _timer = None
 
     def _frames(self, scene):
         if not self.animation and self.frame_start < 0:
@@ -141,52 +141,33 @@ class SSGI_OT_render(bpy.types.Operator):
             return {"CANCELLED"}
         _start_state(len(self._session.frames))
         self._iter = self._session.iter_frames(lambda: ssgi_render.STATE.get("cancel", False))
-        wm = context.window_manager
-        wm.progress_begin(0, len(self._session.frames))
-        self._timer = wm.event_timer_add(0.05, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return self.start_steps(context, len(self._session.frames))
 
-    def modal(self, context, event):
-        if event.type == "ESC":
-            ssgi_render.STATE["cancel"] = True
-            return self._step(context)
-        if event.type == "TIMER" and event.timer is self._timer:
-            return self._step(context)
-        return {"PASS_THROUGH"}  # the UI stays usable (the panel's Cancel button) between frames
-
-    def _step(self, context):
-        wm = context.window_manager
+    # TimerSteps: one frame per timer tick
+    def step_work(self, context):
+        n = len(self._session.results)
         try:
             info = next(self._iter)
         except StopIteration:
-            return self._finish(context)
-        except Exception as e:  # UserError, or a bug: stop cleanly (timer, progress) and say what happened
-            msg = str(e) if isinstance(e, UserError) else f"{type(e).__name__}: {e}"
-            self._finish(context, report=False)
-            ssgi_render.STATE.update(status="error", message=msg)
-            self.report({"ERROR"}, msg)
-            return {"CANCELLED"}
+            return False, n
         n = len(self._session.results)
         ssgi_render.STATE.update(done=n, progress=n / max(1, len(self._session.frames)),
                                  message=f"frame {info['frame']} done")
-        wm.progress_update(n)
-        for area in context.screen.areas if context.screen else ():
-            area.tag_redraw()
-        return {"RUNNING_MODAL"}
+        return True, n
 
-    def _finish(self, context, report=True):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-        wm.progress_end()
+    def stop_request(self):
+        ssgi_render.STATE["cancel"] = True
+
+    def steps_finished(self, context):
         _end_state(self._session)
-        if report:
-            self.report({"INFO"}, _summary_text(self._session.summary()))
-            if not self._session.cancelled:
-                with _suppress():
-                    bpy.ops.render.view_show("INVOKE_DEFAULT")
-        return {"FINISHED"}
+        self.report({"INFO"}, _summary_text(self._session.summary()))
+        if not self._session.cancelled:
+            with _suppress():
+                bpy.ops.render.view_show("INVOKE_DEFAULT")
+
+    def steps_failed(self, context, message):
+        _end_state(self._session)
+        ssgi_render.STATE.update(status="error", message=message)
 
 
 def _suppress():

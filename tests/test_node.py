@@ -406,3 +406,71 @@ assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
     assert r["passes"] == [True, True, True, True] and r["ao"] is False
     assert r["add_menu"] and r["render_menu"] and r["handler"]
     assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model"]
+
+
+# ---------------------------------------------------------------- ops.TimerSteps: the modal loop of Bake and Render SSGI
+
+_TIMER_STEPS = r'''
+import json, types
+import bpy
+from ssgi.ops import TimerSteps
+from ssgi.model.errors import UserError
+held, log = {}, []
+
+class SSGI_OT_test_steps(TimerSteps, bpy.types.Operator):
+    bl_idname = "ssgi.test_steps"
+    bl_label = "Test Steps"
+    total: bpy.props.IntProperty(default=3)
+    fail_at: bpy.props.IntProperty(default=-1)
+
+    def execute(self, context):  # the bpy module runs execute for INVOKE_DEFAULT: start the loop here
+        held["op"], self.done, self.stop = self, 0, False
+        return self.start_steps(context, self.total)
+
+    def step_work(self, context):
+        if self.done == self.fail_at:
+            raise UserError("unit failed")
+        self.done += 1
+        return self.done < self.total and not self.stop, self.done
+
+    def stop_request(self):
+        self.stop = True
+
+    def steps_finished(self, context):
+        log.append(["finished", self.done])
+
+    def steps_failed(self, context, message):
+        log.append(["failed", message])
+
+bpy.utils.register_class(SSGI_OT_test_steps)
+out = {}
+for case, kw, events in (("run", {}, ["MOUSEMOVE", "TIMER", "TIMER", "TIMER"]),
+                         ("esc", {"total": 5}, ["TIMER", "ESC"]),
+                         ("fail", {"fail_at": 1}, ["TIMER", "TIMER"])):
+    log.clear()
+    r = [sorted(bpy.ops.ssgi.test_steps("INVOKE_DEFAULT", **kw))]
+    op = held["op"]
+    for kind in events:
+        timer = op._timer
+        try:
+            # a stand-in for the event (bpy cannot make one); the operator, context and timer are real
+            r.append(sorted(op.modal(bpy.context, types.SimpleNamespace(type=kind, timer=timer))))
+        except RuntimeError as e:  # the ERROR report raises in the bpy module
+            r.append(["raised", str(e)])
+    r.append(["timer_removed", op._timer is None])
+    out[case] = [r, list(log)]
+bpy.utils.unregister_class(SSGI_OT_test_steps)
+print("JSON" + json.dumps(out))
+'''
+
+
+def test_timer_steps_loop_finishes_stops_on_esc_and_cleans_up_after_an_error():
+    """ops.TimerSteps (shared by Bake Dataset and Render SSGI), driven with timer and Esc events by hand: the bpy
+    module has no event loop, and runs execute for INVOKE_DEFAULT, so the test operator starts its loop there."""
+    p = run_py(_TIMER_STEPS, timeout=300)
+    r = json.loads(p.stdout.split("JSON", 1)[1])
+    assert r["run"] == [[["RUNNING_MODAL"], ["PASS_THROUGH"], ["RUNNING_MODAL"], ["RUNNING_MODAL"], ["FINISHED"],
+                         ["timer_removed", True]], [["finished", 3]]]
+    assert r["esc"] == [[["RUNNING_MODAL"], ["RUNNING_MODAL"], ["FINISHED"], ["timer_removed", True]], [["finished", 2]]]
+    assert r["fail"] == [[["RUNNING_MODAL"], ["RUNNING_MODAL"], ["CANCELLED"], ["timer_removed", True]],
+                         [["failed", "unit failed"]]]
