@@ -15,7 +15,7 @@ def report_models(scene) -> list[Path]:
     """The scene's model (or the shipped default when it exists), then the extra models of the Report panel."""
     s = scene.ssgi
     out = []
-    # scene.ssgi.model_path first (node.scene_model reads it through scene.get("ssgi"), which is None in 5.0)
+    # scene.ssgi.model_path first, before an SSGI node's model (node.resolve_model puts the node's first)
     main = Path(bpy.path.abspath(s.model_path)).expanduser() if s.model_path else node.resolve_model(scene)
     if main.is_file() or s.model_path:
         out.append(main)

@@ -129,12 +129,25 @@ def node_model(node) -> str:
 
 
 def scene_model(scene) -> str:
-    """``scene.ssgi.model_path`` read as an ID property, so it also works where the add-on isn't registered."""
-    grp = scene.get("ssgi")
-    try:
-        return str(grp.get("model_path", "") or "") if grp is not None else ""
-    except AttributeError:
-        return ""
+    """The scene's model setting ``scene.ssgi.model_path`` ("" when unset).
+
+    With the add-on registered it is the registered property. Where it is not (a file reopened without it),
+    Blender 5.0 keeps a registered property's value among the ID's *system* properties
+    (``bl_system_properties_get()``), not in ``scene.get("ssgi")``, which is None for it; a plain ID property
+    ``scene["ssgi"] = {"model_path": ...}`` (set by a script) is read last."""
+    settings = getattr(scene, "ssgi", None)
+    if settings is not None and hasattr(settings, "model_path"):
+        return str(settings.model_path or "")
+    getter = getattr(scene, "bl_system_properties_get", None)
+    for grp in ((getter() if getter is not None else None), scene):
+        try:
+            sub = grp.get("ssgi") if grp is not None else None
+            path = sub.get("model_path", "") if sub is not None else ""
+        except (AttributeError, TypeError):
+            continue
+        if path:
+            return str(path)
+    return ""
 
 
 def resolve_model(scene, override: str | None = None) -> Path:

@@ -474,3 +474,44 @@ def test_timer_steps_loop_finishes_stops_on_esc_and_cleans_up_after_an_error():
     assert r["esc"] == [[["RUNNING_MODAL"], ["RUNNING_MODAL"], ["FINISHED"], ["timer_removed", True]], [["finished", 2]]]
     assert r["fail"] == [[["RUNNING_MODAL"], ["RUNNING_MODAL"], ["CANCELLED"], ["timer_removed", True]],
                          [["failed", "unit failed"]]]
+
+
+# ---------------------------------------------------------------- the scene's model setting (scene.ssgi.model_path)
+
+_SCENE_MODEL = r'''
+import json, sys
+from pathlib import Path
+import bpy
+import ssgi
+from ssgi.ssgi_addon import node
+d = Path(sys.argv[1])
+bpy.ops.wm.read_factory_settings(use_empty=True)
+ssgi.register()
+sc = bpy.context.scene
+out = {"default": str(node.resolve_model(sc))}
+sc.ssgi.model_path = str(d / "scene_model.pt")  # as the SSGI panel's Model field sets it
+out["registered"] = str(node.resolve_model(sc))
+out["override"] = str(node.resolve_model(sc, str(d / "other.pt")))
+bpy.ops.wm.save_as_mainfile(filepath=str(d / "set.blend"))
+ssgi.unregister()
+# the same file without the add-on: the stored setting is still the scene's model
+bpy.ops.wm.open_mainfile(filepath=str(d / "set.blend"))
+out["unregistered_reopened"] = str(node.resolve_model(bpy.context.scene))
+# a scene whose setting is a plain ID property (a script's scene["ssgi"] = {...}), add-on not registered
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.context.scene["ssgi"] = {"model_path": str(d / "id_prop.pt")}
+out["id_property"] = str(node.resolve_model(bpy.context.scene))
+print("JSON" + json.dumps(out))
+'''
+
+
+def test_resolve_model_uses_the_scene_model_set_in_the_ui(tmp_path):
+    """scene.ssgi.model_path, set with the add-on registered, is the model when no node names one; it still is
+    in a reopened file without the add-on, and a plain ID property scene["ssgi"] works too."""
+    from ssgi.ssgi_addon.node import DEFAULT_MODEL
+    r = json.loads(run_py(_SCENE_MODEL, str(tmp_path), timeout=300).stdout.split("JSON", 1)[1])
+    assert r["default"] == str(DEFAULT_MODEL)
+    assert r["registered"] == str(tmp_path / "scene_model.pt")
+    assert r["override"] == str(tmp_path / "other.pt")
+    assert r["unregistered_reopened"] == str(tmp_path / "scene_model.pt")
+    assert r["id_property"] == str(tmp_path / "id_prop.pt")
