@@ -6,7 +6,9 @@ that a GL abort fails one test and not the whole run.
 """
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -16,7 +18,34 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-_USER = tempfile.mkdtemp(prefix="ssgi-test-user-")
+_USER_PREFIX = "ssgi-test-user-"
+_USER_DIRS: list[str] = []  # the Blender user folders this process made; removed when it exits
+
+
+def _user_dir() -> str:
+    """A fresh temporary Blender user folder (``BLENDER_USER_RESOURCES``), removed at exit."""
+    d = tempfile.mkdtemp(prefix=_USER_PREFIX)
+    _USER_DIRS.append(d)
+    return d
+
+
+def _remove_user_dirs() -> None:
+    """Remove only the folders ``_user_dir`` made in this process (a pytest-xdist worker removes its own): each
+    must still be a real folder (not a link) named with our prefix in the temporary folder. SSGI_KEEP_TEST_USER=1
+    keeps them for a look after a failure."""
+    if os.environ.get("SSGI_KEEP_TEST_USER"):
+        return
+    tmp = os.path.realpath(tempfile.gettempdir())
+    while _USER_DIRS:
+        d = _USER_DIRS.pop()
+        if (os.path.dirname(os.path.realpath(d)) == tmp and os.path.basename(d).startswith(_USER_PREFIX)
+                and os.path.isdir(d) and not os.path.islink(d)):
+            shutil.rmtree(d, ignore_errors=True)
+
+
+# registered before bpy is imported, so it runs after bpy's own exit handlers (atexit runs last-in first-out)
+atexit.register(_remove_user_dirs)
+_USER = _user_dir()
 os.environ["BLENDER_USER_RESOURCES"] = _USER
 os.environ.setdefault("PYTHONHASHSEED", "0")
 sys.path.insert(0, str(ROOT))
@@ -31,7 +60,7 @@ def run_py(code: str, *args: str, timeout: float = 600, cwd: Path | None = None,
     """Run ``code`` in a fresh Python of this venv (with bpy importable and the package loaded as ``ssgi``),
     isolated user resources. Returns the CompletedProcess; with ``check``, a non-zero exit fails the test
     and shows stderr."""
-    user = tempfile.mkdtemp(prefix="ssgi-test-user-")
+    user = _user_dir()
     prelude = f"import sys; sys.path.insert(0, {str(ROOT)!r}); import cli; cli.load_package()\n"
     e = dict(os.environ, BLENDER_USER_RESOURCES=user, PYTHONHASHSEED="0")
     e.update(env or {})
@@ -44,7 +73,7 @@ def run_py(code: str, *args: str, timeout: float = 600, cwd: Path | None = None,
 
 def run_cli(*args: str, timeout: float = 600, check: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
     """Run ``cli.py ARGS`` in a subprocess with isolated user resources."""
-    user = tempfile.mkdtemp(prefix="ssgi-test-user-")
+    user = _user_dir()
     e = dict(os.environ, BLENDER_USER_RESOURCES=user, PYTHONHASHSEED="0")
     e.update(env or {})
     p = subprocess.run([sys.executable, str(ROOT / "cli.py"), *args], capture_output=True, text=True,

@@ -127,3 +127,31 @@ def test_render_refuses_a_bad_blend_with_exit_2(tmp_path):
     assert f"--blend {junk}: not a readable .blend file" in p.stderr
     p = run_cli("render", "--blend", str(tmp_path), check=False, timeout=300)
     assert p.returncode == 2 and f"--blend {tmp_path}: is a folder" in p.stderr
+
+
+_USES_CONFTEST = "from tests import conftest; conftest.run_py('pass'); conftest.run_cli('--help')"
+
+
+def test_test_sessions_remove_their_blender_user_folders(tmp_path):
+    """tests/conftest.py's temporary Blender user folders (the session's and each run_py/run_cli's) are gone
+    when the process that made them exits; a folder of the same prefix that it did not make is left alone;
+    SSGI_KEEP_TEST_USER=1 keeps them."""
+    import os
+    import subprocess
+    import sys
+
+    from .conftest import ROOT
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    foreign = tmp / "ssgi-test-user-not-ours"
+    foreign.mkdir()
+    env = dict(os.environ, TMPDIR=str(tmp))
+    env.pop("SSGI_KEEP_TEST_USER", None)
+    for keep, left in ((None, 1), ("1", 4)):  # 3 kept: the process's own, run_py's and run_cli's
+        if keep:
+            env["SSGI_KEEP_TEST_USER"] = keep
+        p = subprocess.run([sys.executable, "-c", _USES_CONFTEST], cwd=ROOT, env=env, capture_output=True,
+                           text=True, timeout=300)
+        assert p.returncode == 0, p.stderr[-3000:]
+        names = sorted(x.name for x in tmp.iterdir() if x.name.startswith("ssgi-test-user-"))
+        assert len(names) == left and foreign.name in names, names
