@@ -44,6 +44,10 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "EEVEE Depth pass: distance along the view axis; the camera's clip end (or larger) where nothing is hit."),
     Group("direct", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE Diffuse Direct light with hard shadows (tiny lights, no GI, black world)."),
+    Group("world", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
+          "World light alone, unoccluded: EEVEE's Diffuse Direct pass of a render with the lights hidden and the "
+          "world lighting (no shadows from the world, no bounces). 0 where nothing is hit and in a black world. "
+          "Tells the network how much light the sky can bring, which no other input shows."),
     Group("ao", ("Y",), "unit", "eevee", "use_pass_ambient_occlusion", "[0,1]",
           "EEVEE Ambient Occlusion pass (grey, one channel kept)."),
     Group("eevee", ("R", "G", "B", "A"), "light", "eevee", None, "linear radiance (HDR)",
@@ -63,8 +67,11 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
 }
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
-SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "eevee", "ref")
-INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "lit", "scene")
+SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
+# Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
+# dataset's manifest (its channel_spec) says which groups its samples hold.
+OPTIONAL_GROUPS: tuple[str, ...] = ("world",)
+INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "lit", "scene")
 TARGET_GROUP = "ref"
 # The seed's 13 inputs.
 DEFAULT_INPUTS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "lit")

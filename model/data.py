@@ -93,6 +93,12 @@ class DatasetFolder(torch.utils.data.Dataset):
         spec = ch.parse_spec(spec)
         m = read_manifest(root)
         groups = tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
+        from .dataset import stored_groups
+        lacking = [g for g in groups if g not in stored_groups(m)]
+        if lacking:
+            raise UserError(f"{root / 'manifest.json'}: this dataset was baked without the group(s) "
+                            f"{', '.join(lacking)} that the inputs {ch.format_spec(spec)!r} need; bake it again "
+                            f"with this version, or leave those inputs out (--inputs)")
         ds = cls(root=root, spec=spec, manifest=m)
         items = sorted(m["samples"].items())
         if keys is not None:

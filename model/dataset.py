@@ -143,11 +143,21 @@ def remove_temp_files(folder, owned=None) -> int:
     return n
 
 
-def check_sample(path, size=None) -> list[str]:
-    """Problems of one sample file (unreadable, missing channels, size other than ``size`` = [w, h],
-    non-finite values), each naming the file. Empty when the sample is complete and sound."""
+def stored_groups(manifest: dict) -> tuple[str, ...]:
+    """The groups every sample of this dataset holds: those its manifest's channel spec lists (a dataset baked
+    before an optional group existed does not hold it)."""
+    listed = {g.get("name") for g in manifest.get("channel_spec", ()) if isinstance(g, dict) and "channels" in g}
+    if not listed:
+        return tuple(g for g in ch.SAMPLE_GROUPS if g not in ch.OPTIONAL_GROUPS)
+    return tuple(g for g in ch.SAMPLE_GROUPS if g in listed or g not in ch.OPTIONAL_GROUPS)
+
+
+def check_sample(path, size=None, groups=None) -> list[str]:
+    """Problems of one sample file (unreadable, missing channels of ``groups`` (default: every sample group),
+    size other than ``size`` = [w, h], non-finite values), each naming the file. Empty when the sample is
+    complete and sound."""
     try:
-        g = exrio.read_sample(path)
+        g = exrio.read_sample(path, tuple(groups) if groups is not None else ch.SAMPLE_GROUPS)
     except UserError as e:
         return [str(e)]
     problems = []
@@ -202,7 +212,7 @@ def verify(folder) -> list[str]:
     for name in sorted(set(files) - set(m["samples"])):
         problems.append(f"{files[name]}: not listed in the manifest (incomplete sample?)")
     for name in sorted(set(files) & set(m["samples"])):
-        problems.extend(check_sample(files[name], size))
+        problems.extend(check_sample(files[name], size, stored_groups(m)))
     temps = sorted(p.name for p in folder.glob(".*.tmp"))
     if temps:
         problems.append(f"{folder}: temporary file(s) left over: {', '.join(temps[:5])}")

@@ -129,14 +129,18 @@ def write_sample(path, groups: dict[str, np.ndarray], half: bool = True, header:
 
 
 def read_sample(path, groups: tuple[str, ...] | None = None, strict: bool = True) -> dict[str, np.ndarray]:
-    """Read ``groups`` (default: all of ``SAMPLE_GROUPS``) from a sample as ``{group: HxWxC float32}``.
+    """Read ``groups`` (default: all of ``SAMPLE_GROUPS``; the ``OPTIONAL_GROUPS`` only when the file has them) from a sample as ``{group: HxWxC float32}``.
 
     A missing channel is a UserError naming the file and the channel; with ``strict``, so is a channel that is
     in no group of the channel spec (a foreign or newer file), whichever ``groups`` are asked for.
     """
     path = Path(path)
     planes, _ = read_exr(path)
-    want = groups if groups is not None else ch.SAMPLE_GROUPS
+    if groups is not None:
+        want = tuple(groups)
+    else:
+        want = tuple(g for g in ch.SAMPLE_GROUPS
+                     if g not in ch.OPTIONAL_GROUPS or any(c in planes for c in ch.GROUPS[g].channels))
     missing = [c for g in want for c in ch.GROUPS[g].channels if c not in planes]
     if missing:
         raise UserError(f"{path}: missing channel(s) {', '.join(missing)}")

@@ -45,12 +45,13 @@ def sample(w: int, h: int, seed: int, scene_seed: int) -> dict[str, np.ndarray]:
         y0, x0 = rl.integers(0, h), rl.integers(0, w)
         direct[y0:y0 + rl.integers(2, h // 3 + 3), x0:x0 + rl.integers(2, w // 3 + 3)] = 0
     bounce = np.stack([gaussian_filter(albedo[..., c] * direct[..., c], 3) for c in range(3)], -1)
-    ref = albedo * (direct + 0.6 * bounce + 0.02)
+    world = np.full((h, w, 3), 0.02, np.float32)  # a dim uniform sky, unoccluded
+    ref = albedo * (direct + 0.6 * bounce + world)
     lit = albedo * direct
     eevee = np.concatenate([lit, np.ones((h, w, 1), np.float32)], -1)
     ao = np.ones((h, w, 1), np.float32)
     return dict(albedo=albedo, normal=normal, depth=depth, direct=direct.astype(np.float32), ao=ao,
-                eevee=eevee.astype(np.float32), ref=ref.astype(np.float32))
+                world=world, eevee=eevee.astype(np.float32), ref=ref.astype(np.float32))
 
 
 def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int = 32, seed: int = 0,

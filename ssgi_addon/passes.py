@@ -34,6 +34,7 @@ PASS_NAMES: dict[str, str] = {
     "depth": "Depth",
     "direct": "Diffuse Direct",
     "ao": "Ambient Occlusion",
+    "world": "Diffuse Direct",  # of a second render: lights hidden, the world lighting
     "eevee": "Combined",
     "ref": "Combined",
 }
@@ -240,6 +241,60 @@ def world_to_camera_normals(n: np.ndarray, rot: np.ndarray) -> np.ndarray:
     return np.einsum("hwi,ij->hwj", n.astype(np.float64), rot).astype(np.float32)
 
 
+def world_is_black(world) -> bool:
+    """True when ``world`` certainly lights nothing: no world, or a plain Background (colour and strength not
+    driven by other nodes) of strength 0 or black colour. Then the world pass is all zeros without a render."""
+    if world is None:
+        return True
+    nt = world.node_tree if getattr(world, "use_nodes", True) else None
+    if nt is None:
+        return max(world.color) <= 0.0
+    out = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output), None)
+    if out is None or not out.inputs["Surface"].links:
+        return True
+    src = out.inputs["Surface"].links[0].from_node
+    if src.bl_idname != "ShaderNodeBackground":
+        return False
+    col, strength = src.inputs["Color"], src.inputs["Strength"]
+    if not strength.links and strength.default_value <= 0.0:
+        return True
+    return not col.links and max(col.default_value[:3]) <= 0.0
+
+
+@contextlib.contextmanager
+def _world_light_only(scene):
+    """Lights and light probes hidden from the render, the scene's world as it is; restored on exit."""
+    hidden = [o for o in scene.objects if o.type in ("LIGHT", "LIGHT_PROBE") and not o.hide_render]
+    try:
+        for o in hidden:
+            o.hide_render = True
+        yield
+    finally:
+        for o in hidden:
+            o.hide_render = False
+
+
+# how the `world` group is rendered, recorded in the manifest settings (eevee.world_group)
+WORLD_GROUP_MODE = "diffuse_direct_lights_and_probes_hidden"
+
+
+def render_world(scene, samples: int = 1) -> np.ndarray:
+    """The ``world`` group: EEVEE's Diffuse Direct pass with the lights hidden, i.e. the world's light on each
+    surface without occlusion (EEVEE lights the diffuse direct pass from the world probe, unshadowed; measured
+    in docs/bake.md). HxWx3 float32, 0 where nothing is hit. A world that lights nothing (``world_is_black``)
+    costs no render."""
+    _check_camera(scene)
+    if world_is_black(scene.world):
+        r = scene.render
+        h = int(r.resolution_y * r.resolution_percentage / 100)
+        w = int(r.resolution_x * r.resolution_percentage / 100)
+        return np.zeros((h, w, 3), np.float32)
+    configure_gbuffer(scene, ("direct",), samples=samples)
+    with _world_light_only(scene):
+        passes = _render(scene)
+    return _group(passes, "world")[..., :3]
+
+
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
@@ -249,10 +304,16 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True) 
         if g not in EEVEE_GROUPS:
             raise ValueError(f"group {g!r} is not rendered by EEVEE; EEVEE groups: {EEVEE_GROUPS}")
     _check_camera(scene)
-    configure_gbuffer(scene, groups, samples=samples)
-    with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
-        passes = _render(scene)
-    out = {g: _group(passes, g) for g in groups}
+    raster = tuple(g for g in groups if g != "world")
+    out = {}
+    if raster:
+        configure_gbuffer(scene, raster, samples=samples)
+        with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
+            passes = _render(scene)
+        out = {g: _group(passes, g) for g in raster}
+    if "world" in groups:
+        out["world"] = render_world(scene, samples=samples)
+    out = {g: out[g] for g in groups}
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
     return out

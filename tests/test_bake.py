@@ -252,6 +252,8 @@ def direct_renders(tmp_path_factory):
         res[f"eevee{{seed}}"] = passes.render_gbuffer(sc, ("direct",))["direct"]
         res[f"cycles{{seed}}"] = passes.render_cycles(sc, 64, seed=1, hard=True, groups=("direct",))["direct"]
         res[f"types{{seed}}"] = np.array(sorted(o.data.type for o in sc.objects if o.type == "LIGHT"))
+        res[f"black{{seed}}"] = passes.world_is_black(sc.world)
+        res[f"world{{seed}}"] = passes.render_gbuffer(sc, ("world",))["world"]
     prm = room.room_params(10)
     assert prm["open_side"] == "wall_xn"
     room.build_room(10, sc)
@@ -259,10 +261,12 @@ def direct_renders(tmp_path_factory):
     look = Vector((-W / 2 + 0.3, 0.3, 0.0)) - sc.camera.location  # at the floor's edge by the open side
     sc.camera.rotation_euler = look.to_track_quat("-Z", "Y").to_euler()
     passes.set_resolution(sc, 64, 36)
-    groups = ("albedo", "depth", "direct", "eevee")
+    groups = ("albedo", "depth", "direct", "eevee", "world")
     for keep in (True, False):
         for g, v in passes.render_gbuffer(sc, groups, keep_sky=keep).items():
             res[f"{{g}}_{{int(keep)}}"] = v
+    res["black10"] = passes.world_is_black(sc.world)
+    res["lights_hidden_after"] = [o.hide_render for o in sc.objects if o.type == "LIGHT"]
     res["world"] = np.array(prm["world"]["colour"]) * prm["world"]["strength"]
     res["world_name"] = np.array(sc.world.name)
     res["worlds"] = np.array(sorted(w.name for w in bpy.data.worlds))
@@ -305,6 +309,23 @@ def test_sky_keeps_the_world_colour_and_direct_light_is_unchanged(direct_renders
     np.testing.assert_allclose(r["eevee_1"][~sky], r["eevee_0"][~sky], atol=1e-3)
     # the scene's own world is back and the temporary one is gone
     assert str(r["world_name"]) == "ssgi.world" and list(r["worlds"]) == ["ssgi.world"]
+
+
+def test_world_pass_holds_the_skys_unoccluded_light(direct_renders):
+    """The ``world`` input: EEVEE's Diffuse Direct with the lights hidden. For a uniform world it is the world's
+    colour x strength on every surface (unoccluded; measured within 1.6 %, docs/bake.md), 0 on the sky; a
+    closed room's black world gives exact zeros without a render; the lights are visible again after."""
+    r = direct_renders
+    sky = r["depth_1"][..., 0] >= 99.0
+    w = r["world_1"]
+    assert w[sky].max() == 0.0
+    np.testing.assert_allclose(w[~sky].mean(0), r["world"], rtol=0.03)
+    assert np.abs(w[~sky] - r["world"]).max() < 0.03 * r["world"].max()  # the same on every surface
+    np.testing.assert_array_equal(r["world_1"], r["world_0"])  # the sky option does not change it
+    assert not r["black10"] and r["black51"] and r["black3"]
+    for seed in (51, 3):
+        assert r[f"world{seed}"].shape == r[f"eevee{seed}"].shape and not r[f"world{seed}"].any()
+    assert not any(r["lights_hidden_after"])
 
 
 # ---------------------------------------------------------------- the Bake Dataset operator

@@ -296,3 +296,43 @@ def test_inputs_are_configurable_and_heads_name_what_they_need():
     with pytest.raises(UserError, match="has no setting 'depth'"):
         network.arch_for("unet", depth=3)
     assert network.count_params(_net("fssgi", spec=("normal", "depth"))) < 238_339  # the log head needs nothing
+
+
+# ---------------------------------------------------------------- datasets with and without the world group
+
+def _strip_world(folder):
+    """Make ``folder`` look like a dataset baked before the ``world`` group existed."""
+    import json
+
+    from ssgi.model import exrio
+    for p in sorted(folder.glob("[0-9]*.exr")):
+        planes, _ = exrio.read_exr(p)
+        exrio.write_exr(p, {k: v for k, v in planes.items() if not k.startswith("world.")}, half=False)
+    m = json.loads((folder / "manifest.json").read_text())
+    m["channel_spec"] = [g for g in m["channel_spec"] if g["name"] != "world"]
+    (folder / "manifest.json").write_text(json.dumps(m))
+
+
+def test_datasets_from_before_the_world_group_still_read_verify_and_feed_training(tmp_path):
+    from ssgi.model import data, dataset, exrio, synthetic
+    new = synthetic.make_dataset(tmp_path / "new", scenes=2, per_scene=1, w=16, h=8)
+    assert "world" in dataset.stored_groups(dataset.load_manifest(new))
+    assert dataset.verify(new) == []
+    old = synthetic.make_dataset(tmp_path / "old", scenes=2, per_scene=1, w=16, h=8)
+    _strip_world(old)
+    assert dataset.stored_groups(dataset.load_manifest(old)) == tuple(g for g in ch.SAMPLE_GROUPS if g != "world")
+    assert dataset.verify(old) == []
+    assert "world" not in exrio.read_sample(old / "000000.exr") and "world" in exrio.read_sample(new / "000000.exr")
+    # the inputs without `world` load from the old dataset; asking for `world` names the file and channel
+    spec = ch.parse_spec("albedo,normal,depth,direct,lit")
+    assert len(data.DatasetFolder.load(old, spec).samples) == 2
+    with pytest.raises(UserError, match=r"manifest\.json: this dataset was baked without the group\(s\) world"):
+        data.DatasetFolder.load(old, spec + ("world",))
+    with pytest.raises(UserError, match=r"000000\.exr.*world\.R"):
+        exrio.read_sample(old / "000000.exr", ("world",))
+    # a new dataset whose sample lost its world channels is caught by verify, naming the file
+    _strip_world(new)
+    m = dataset.load_manifest(old)
+    (new / "manifest.json").write_text(__import__("json").dumps({**m, "channel_spec": ch.describe()}))
+    problems = dataset.verify(new)
+    assert problems and all("world.R" in p for p in problems) and "000000.exr" in problems[0]
