@@ -58,7 +58,9 @@ SIZE_SHARE = 0.5  # of the budget, for the size search
 ABLATION_SHARE = 0.3  # ... for the input ablation (control + one run per droppable group)
 MIN_RUN_S = 5.0  # a run shorter than this is not started
 # input groups tried for removal, in this order (cheapest pass to lose first)
-DROP_ORDER = ("scene", "ao", "depth", "normal", "lit", "direct", "albedo")
+# `world` first: dropping it saves a whole second EEVEE render (docs/bake.md), and a scene without sky light
+# loses nothing without it
+DROP_ORDER = ("world", "scene", "ao", "depth", "normal", "lit", "direct", "albedo")
 HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
 
 # smallest first: (name, variant, overrides of network.arch_for). Narrow full-resolution levels: at 960x540

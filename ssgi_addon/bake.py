@@ -65,14 +65,8 @@ def _room_jobs(count: int, first_seed: int):
 
 
 def _open_blend(path: str):
-    p = Path(path)
-    if not p.is_file():
-        raise UserError(f"--scenes {path}: no such .blend file")
-    try:
-        bpy.ops.wm.open_mainfile(filepath=str(p.resolve()), load_ui=False)
-    except RuntimeError as e:
-        raise UserError(f"--scenes {path}: not a readable .blend file ({str(e).strip().splitlines()[-1]})") from None
-    return bpy.context.scene
+    from .blendfile import open_blend
+    return open_blend(path, arg="--scenes")
 
 
 def _scene_jobs(scenes, frames):

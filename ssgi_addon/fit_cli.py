@@ -187,7 +187,8 @@ def register_cli(sub) -> None:
                    help="checkpoint to fine-tune from (default: the shipped models/ssgi_default.pt when present)")
     p.add_argument("--drop-tol", type=float, default=0.1, metavar="DB",
                    help="drop an input pass when the val PSNR without it is at most this much lower (default %(default)s)")
-    p.add_argument("--ref-samples", type=cliargs.positive_int, default=None, help="Cycles samples of the references (baker's default)")
+    p.add_argument("--ref-samples", type=cliargs.positive_int, default=None,
+                   help="Cycles samples of the views' references (default 16 + OIDN: fit.FIT_REF_SAMPLES)")
     p.add_argument("--data", default=None, metavar="DIR", help="fit views baked before instead of baking --blend")
     p.add_argument("--plan", default=None, metavar="JSON", help="with --data: the views_plan.json of that bake")
     p.add_argument("--ladder", default=None, metavar="JSON", help='sizes to try, e.g. \'[["xs", "unet", {"widths": [8, 12, 16], "convs": [1, 1, 1]}]]\'')

@@ -199,10 +199,45 @@ def read_multilayer(path) -> dict[str, dict[str, np.ndarray]]:
     return out
 
 
+STALE_TEMP_S = 600.0  # a leftover temporary render file is removed when its process is gone and it is this old
+_swept = False
+
+
+def remove_stale_temp_files(folder=None, min_age_s: float = STALE_TEMP_S) -> list[str]:
+    """Remove ``ssgi-render-PID-*.exr`` / ``ssgi-passes-PID-*.exr`` files that a killed process left in the
+    temporary folder: only when process PID is gone and the file is older than ``min_age_s`` (a process in
+    another pid namespace sharing the folder cannot lose a file in use). Returns the removed names."""
+    import re
+    folder = folder or tempfile.gettempdir()
+    removed = []
+    pat = re.compile(r"^ssgi-(?:render|passes)-(\d+)-[^/]*\.exr$")
+    now = time.time()
+    for name in os.listdir(folder):
+        m = pat.match(name)
+        if not m or int(m.group(1)) == os.getpid():
+            continue
+        try:
+            os.kill(int(m.group(1)), 0)
+            continue  # the process lives
+        except ProcessLookupError:
+            pass
+        except (PermissionError, OverflowError):
+            continue
+        path = os.path.join(folder, name)
+        with contextlib.suppress(OSError):
+            if now - os.stat(path).st_mtime >= min_age_s and os.path.isfile(path):
+                os.unlink(path)
+                removed.append(name)
+    return removed
+
+
 def _render(scene) -> dict[str, dict[str, np.ndarray]]:
+    global _swept
     _check_camera(scene)
-    fd, path = tempfile.mkstemp(prefix="ssgi-render-", suffix=".exr")
-    os.close(fd)
+    if not _swept:
+        _swept = True
+        remove_stale_temp_files()
+    path = None
     try:
         with _exr_output(scene):
             vl = scene.view_layers[0]
@@ -210,11 +245,16 @@ def _render(scene) -> dict[str, dict[str, np.ndarray]]:
             img = bpy.data.images.get("Render Result")
             if img is None:
                 raise RuntimeError("render produced no Render Result")
+            # the temporary file exists only for the save and the read, not during the (long) render, so a
+            # process killed while rendering leaves nothing behind (docs/hard_cases.md)
+            fd, path = tempfile.mkstemp(prefix=f"ssgi-render-{os.getpid()}-", suffix=".exr")
+            os.close(fd)
             img.save_render(path, scene=scene)
         return read_multilayer(path)
     finally:
-        with contextlib.suppress(OSError):
-            os.unlink(path)
+        if path is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
 
 
 def _group(passes: dict, group: str) -> np.ndarray:
@@ -306,13 +346,13 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True) 
     _check_camera(scene)
     raster = tuple(g for g in groups if g != "world")
     out = {}
+    if "world" in groups:  # first: the Render Result left behind is the G-buffer render (render.py saves it)
+        out["world"] = render_world(scene, samples=samples)
     if raster:
         configure_gbuffer(scene, raster, samples=samples)
         with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
             passes = _render(scene)
-        out = {g: _group(passes, g) for g in raster}
-    if "world" in groups:
-        out["world"] = render_world(scene, samples=samples)
+        out.update({g: _group(passes, g) for g in raster})
     out = {g: out[g] for g in groups}
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))

@@ -333,8 +333,7 @@ class RenderSession:
         scene = self.scene
         info: dict = {"frame": frame}
         scene.frame_set(frame)
-        fd, exr = tempfile.mkstemp(prefix="ssgi-passes-", suffix=".exr")
-        os.close(fd)
+        exr = None
         try:
             with preserved(scene):
                 t0 = time.perf_counter()
@@ -345,6 +344,9 @@ class RenderSession:
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()
+                # made after the pass render (not during it), named by process: see docs/hard_cases.md
+                fd, exr = tempfile.mkstemp(prefix=f"ssgi-passes-{os.getpid()}-", suffix=".exr")
+                os.close(fd)
                 save_multilayer(scene, exr)
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
@@ -378,8 +380,9 @@ class RenderSession:
                 info["groups"] = groups
                 info["prediction"] = rgb
         finally:
-            with contextlib.suppress(OSError):
-                os.unlink(exr)
+            if exr is not None:
+                with contextlib.suppress(OSError):
+                    os.unlink(exr)
         return info
 
     def iter_frames(self, should_cancel=None):

@@ -57,6 +57,14 @@ LADDER_SEED = 7919  # Cycles seed of the ladder renders: not a seed the baker us
 REF_SEED_OFFSET = 104729  # the re-rendered reference uses the target's seed + this
 
 
+# the G-buffer every method shares (the world pass is separate: see EvalScene.gbuffer)
+RASTER_GROUPS = tuple(g for g in passes.EEVEE_GROUPS if g != "world")
+
+
+def _needs_world(pred) -> bool:
+    return "world" in ch.required_groups(tuple(pred.spec))
+
+
 @dataclass
 class EvalScene:
     name: str
@@ -66,12 +74,24 @@ class EvalScene:
     exposure: float = 1.0  # the dataset scaled every light image of this sample by this after rendering
     stored_eevee: np.ndarray | None = None  # the dataset's own EEVEE direct image: checks the rebuilt scene
 
-    def gbuffer(self, scene, samples: int = 1) -> dict[str, np.ndarray]:
-        """passes.render_gbuffer with the light groups scaled by ``exposure`` (as the dataset stored them)."""
-        g = passes.render_gbuffer(scene, samples=samples)
+    t_raster: float = 0.0  # seconds of the last gbuffer(): the direct-only raster ...
+    t_world: float = 0.0  # ... and the world pass (0 when not rendered, or for a black world)
+
+    def gbuffer(self, scene, samples: int = 1, world: bool = True) -> dict[str, np.ndarray]:
+        """passes.render_gbuffer with the light groups scaled by ``exposure`` (as the dataset stored them). The
+        world pass (a second render, only for an open scene) is timed apart: only models that read it pay it."""
+        t0 = time.perf_counter()
+        w = passes.render_world(scene, samples=samples) if world else None
+        t1 = time.perf_counter()
+        g = passes.render_gbuffer(scene, RASTER_GROUPS, samples=samples)
+        self.t_world, self.t_raster = t1 - t0, time.perf_counter() - t1
+        if w is not None:
+            g["world"] = w
         if self.exposure != 1.0:
             k = np.float32(self.exposure)
-            g["direct"] = g["direct"] * k
+            for lg in ("direct", "world"):
+                if lg in g:
+                    g[lg] = g[lg] * k
             g["eevee"] = np.concatenate([g["eevee"][..., :3] * k, g["eevee"][..., 3:]], -1)
         return g
 
@@ -308,7 +328,7 @@ class ReportRun:
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
-        g = passes.render_gbuffer(scene, samples=self.s.gbuffer_samples)
+        g = passes.render_gbuffer(scene, samples=self.s.gbuffer_samples)  # with the world pass
         for k in GI_PRESETS:
             render_eevee_gi(scene, k, 1)
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
@@ -337,8 +357,9 @@ class ReportRun:
             self._warmup(scene)
         name = es.name
         self.raw["scenes"].append(name)
-        g, t_g = _timed(es.gbuffer, scene, s.gbuffer_samples)
-        self._step(f"{name}: G-buffer {t_g:.2f} s")
+        g = es.gbuffer(scene, s.gbuffer_samples)
+        t_g, t_w = es.t_raster, es.t_world
+        self._step(f"{name}: G-buffer {t_g:.2f} s, world pass {t_w:.2f} s")
         mask = normalize.geometry_mask(g["depth"], g["normal"])
         ref = es.ref
         if ref.shape[:2] != g["depth"].shape[:2]:
@@ -362,7 +383,8 @@ class ReportRun:
                 img, t = _timed(pred.predict, g)
                 ts.append(t)
             t_p = float(np.median(ts))
-            self._score(key, name, img, ref, mask, dict(gbuffer_s=t_g, predict_s=t_p, whole_s=t_g + t_p, own_s=t_p))
+            t_gb = t_g + (t_w if _needs_world(pred) else 0.0)
+            self._score(key, name, img, ref, mask, dict(gbuffer_s=t_gb, predict_s=t_p, whole_s=t_gb + t_p, own_s=t_p))
             self._step(f"{name}: {Path(path).name} {t_p * 1000:.0f} ms")
         for k in GI_PRESETS:
             img, t = _timed(render_eevee_gi, scene, k, s.eevee_samples if k == "default" else s.eevee_high_samples)
@@ -398,8 +420,11 @@ class ReportRun:
         for z in sizes:
             w, h = parse_size(z)
             passes.set_resolution(scene, w, h)
-            _, t = _timed(passes.render_gbuffer, scene, samples=self.s.gbuffer_samples)
+            _, t = _timed(passes.render_gbuffer, scene, RASTER_GROUPS, samples=self.s.gbuffer_samples)
             out["gbuffer"].append(dict(size=z, seconds=t))
+            if any(_needs_world(p) for _, p in self._model_keys.values()):
+                _, t = _timed(passes.render_world, scene, samples=self.s.gbuffer_samples)
+                out.setdefault("world_pass", []).append(dict(size=z, seconds=t))
             _, t = _timed(passes.render_cycles, scene, 1, seed=LADDER_SEED, denoise=True)
             out["cycles_1spp_oidn"].append(dict(size=z, seconds=t))
             self.log(f"scaling {z}: G-buffer {out['gbuffer'][-1]['seconds']:.2f} s, Cycles 1 spp + OIDN {t:.2f} s")

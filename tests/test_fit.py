@@ -80,8 +80,8 @@ def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, o
 
 
 def test_droppable_respects_the_head():
-    assert fit.droppable(ch.INPUT_GROUPS, "residual") == ["scene", "ao", "depth", "normal", "lit"]
-    assert fit.droppable(ch.INPUT_GROUPS, "demod") == ["scene", "ao", "depth", "normal", "lit", "direct"]
+    assert fit.droppable(ch.INPUT_GROUPS, "residual") == ["world", "scene", "ao", "depth", "normal", "lit"]
+    assert fit.droppable(ch.INPUT_GROUPS, "demod") == ["world", "scene", "ao", "depth", "normal", "lit", "direct"]
     assert fit.droppable(("albedo", "direct"), "residual") == []
 
 

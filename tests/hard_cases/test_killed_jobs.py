@@ -74,3 +74,28 @@ def test_killed_render_reruns_to_complete_valid_frames(room, tmp_path):
         assert sorted(planes) == ["A", "B", "G", "R"]
         assert all(v.shape == (36, 64) and np.isfinite(v).all() for v in planes.values())
     assert _no_temps(out) == []
+
+
+def test_temporary_render_files_of_killed_processes_are_swept(tmp_path):
+    """A killed render can leave its ``ssgi-render-PID-*.exr`` in the temporary folder (only in the short
+    save-and-read window now). The next render process removes such files once their process is gone and they
+    are 10 minutes old; files of live processes, fresh files and other files stay."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from ssgi.ssgi_addon import passes
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    dead, old = child.pid, time.time() - 2 * passes.STALE_TEMP_S
+    names = {f"ssgi-render-{dead}-a.exr": old, f"ssgi-passes-{dead}-b.exr": old, f"ssgi-render-{dead}-c.exr": None,
+             f"ssgi-render-{os.getpid()}-d.exr": old, f"ssgi-render-{os.getppid()}-e.exr": old, "ssgi-render-x.exr": old,
+             "other.exr": old}
+    for n, t in names.items():
+        (tmp_path / n).write_bytes(b"")
+        if t:
+            os.utime(tmp_path / n, (t, t))
+    removed = passes.remove_stale_temp_files(tmp_path)
+    assert sorted(removed) == sorted([f"ssgi-render-{dead}-a.exr", f"ssgi-passes-{dead}-b.exr"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(set(names) - set(removed))
