@@ -8,9 +8,11 @@
 
 Views: the scene's own cameras at ``len(frames)`` frames spread over the animation (one frame, the current,
 when nothing is animated), plus jittered cameras: each a real camera object ``ssgi.fit.view_NN`` sharing the
-camera data (lens) of one scene camera, placed at that camera's pose at a random frame of the animation,
-moved by up to ``radius`` (JITTER_FRACTION of the diagonal of the scene's mesh bounds, shortened so that it
-never passes through a surface) and turned by up to JITTER_DEG degrees. The baker renders every camera at
+camera data (lens) of one scene camera and parented to it with a local offset, so that it follows the shot
+and every frame gives a new view: moved by up to ``radius`` (JITTER_FRACTION of the diagonal of the scene's
+mesh bounds; in a random direction at a random frame of the animation, then shortened so that it passes no
+surface there nor at any frame of the plan) and turned by up to JITTER_DEG degrees about the camera's own
+axes. The baker renders every camera at
 every frame, so there are (scene cameras + jittered cameras) x frames views. Whole jittered cameras are held
 out: ``val`` cameras choose (best epoch, size, inputs), ``test`` cameras only judge the result. The scene's
 own cameras are always training views: the point is to fit the shots the artist renders.
@@ -120,23 +122,38 @@ def make_views(scene, views: int = 24, seed: int = 0) -> dict:
                 cameras={c.name: "train" for c in cams}, views=views)
     for j, role in enumerate(roles(n_jit, rng)):
         base = cams[j % len(cams)]
-        scene.frame_set(rng.randint(f0, f1) if anim else current)
-        dg = bpy_context_depsgraph()
+        chosen = rng.randint(f0, f1) if anim else current
+        scene.frame_set(chosen)
         m = base.matrix_world.copy()
         origin = m.to_translation()
         direction = Vector([rng.gauss(0, 1) for _ in range(3)])
         if direction.length < 1e-9:
             direction = Vector((1.0, 0.0, 0.0))
-        offset = _free_offset(scene, dg, origin, direction.normalized() * radius * rng.uniform(0.4, 1.0))
+        offset = direction.normalized() * radius * rng.uniform(0.4, 1.0)
         turn = Euler((math.radians(rng.uniform(-JITTER_DEG, JITTER_DEG)),
                       math.radians(rng.uniform(-JITTER_DEG, JITTER_DEG)), 0.0), "XYZ").to_matrix().to_4x4()
+        # the move in the camera's own frame: the jittered camera follows its base camera (parented), so every
+        # frame of the plan gives a new view; the move is shortened so that it passes no surface at the chosen
+        # frame nor at any frame the baker renders
+        local_t = m.inverted_safe().to_3x3() @ offset
+        for f in [chosen] + [f for f in frames if f != chosen]:
+            scene.frame_set(f)
+            mf = base.matrix_world
+            world_t = mf.to_3x3() @ local_t
+            free = _free_offset(scene, bpy_context_depsgraph(), mf.to_translation(), world_t)
+            if world_t.length > 0 and free.length < world_t.length:
+                local_t = local_t * (free.length / world_t.length)
+        local = turn.copy()  # turn about the camera's own axes
+        local.translation = local_t
         import bpy
         obj = bpy.data.objects.new(f"{VIEW_PREFIX}{j:02d}", base.data)
         scene.collection.objects.link(obj)
-        obj.matrix_world = m @ turn  # turn about the camera's own axes
-        obj.location = origin + offset
+        obj.parent = base
+        obj.matrix_parent_inverse.identity()
+        obj.matrix_basis = local  # world = base's world matrix @ local, at every frame
         obj["ssgi_fit_role"] = role
         obj["ssgi_fit_from"] = base.name
+        obj["ssgi_fit_frame"] = chosen
         plan["cameras"][obj.name] = role
     scene.frame_set(current)
     return plan

@@ -324,6 +324,59 @@ json.dump(dict(poses=poses, views=res, lens=cam.data.name), open({str(out)!r}, "
         assert ang <= sfit.JITTER_DEG * math.sqrt(2) + 1e-3
 
 
+def test_jittered_cameras_follow_their_animated_scene_camera(tmp_path):
+    """A scene whose only animation is the camera (a dolly past a wall): every jittered camera is parented to
+    its scene camera, so at each frame of the plan its world matrix is the base camera's @ its local offset,
+    a different view at each frame; the offset passes no surface at any of the plan's frames."""
+    out = tmp_path / "follow.json"
+    run_py(f'''
+import bpy, json, math
+from ssgi.ssgi_addon import fit as sfit
+bpy.ops.wm.read_factory_settings(use_empty=True)
+sc = bpy.context.scene
+bpy.ops.mesh.primitive_plane_add(size=20, location=(0, 0, 0))
+bpy.ops.mesh.primitive_cube_add(size=2, location=(0, 6, 1))
+bpy.ops.mesh.primitive_plane_add(size=20, location=(0.05, 0, 1), rotation=(0, math.pi / 2, 0))  # a wall near the path
+bpy.ops.object.camera_add(location=(-1, -6, 1.5), rotation=(math.radians(80), 0, 0))
+cam = bpy.context.object
+sc.camera = cam
+for f, x, rz in ((1, -1.0, 0.0), (9, -0.2, 0.6)):
+    cam.location.x = x
+    cam.rotation_euler.z = rz
+    cam.keyframe_insert("location", frame=f)
+    cam.keyframe_insert("rotation_euler", frame=f)
+sc.frame_start, sc.frame_end = 1, 9
+sc.frame_set(1)
+plan = sfit.make_views(sc, views=24, seed=4)
+res = dict(plan=plan, views={{}})
+for o in sc.objects:
+    if not o.name.startswith(sfit.VIEW_PREFIX):
+        continue
+    v = res["views"][o.name] = dict(parent=o.parent.name if o.parent else None, frames={{}})
+    for f in plan["frames"]:
+        sc.frame_set(f)
+        dg = bpy.context.evaluated_depsgraph_get()
+        w, b = o.matrix_world.copy(), sc.objects[o["ssgi_fit_from"]].matrix_world.copy()
+        a, c = b.to_translation(), w.to_translation()
+        hit = (c - a).length > 0 and sc.ray_cast(dg, a, (c - a).normalized(), distance=(c - a).length)[0]
+        v["frames"][f] = dict(world=[list(r) for r in w], base=[list(r) for r in b],
+                              local=[list(r) for r in o.matrix_basis], hit=bool(hit))
+json.dump(res, open({str(out)!r}, "w"))
+''', timeout=120)
+    r = json.loads(out.read_text())
+    plan = r["plan"]
+    assert len(plan["frames"]) >= 2 and len(r["views"]) >= 3
+    for name, v in r["views"].items():
+        fr = [v["frames"][str(f)] for f in plan["frames"]]
+        worlds = [np.array(d["world"]) for d in fr]
+        assert all(not np.allclose(worlds[0], w, atol=1e-4) for w in worlds[1:]), name  # a new view each frame
+        assert v["parent"] == "Camera", name
+        for d in fr:
+            np.testing.assert_allclose(np.array(d["world"]), np.array(d["base"]) @ np.array(d["local"]), atol=1e-5)
+            assert not d["hit"], name  # the move passes no surface at any frame the baker renders
+            assert np.linalg.norm(np.array(d["local"])[:3, 3]) <= plan["radius"] + 1e-6
+
+
 def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(scene_fit):
     from ssgi.model import exrio
 
