@@ -42,7 +42,8 @@ def synthetic_groups(w: int, h: int, seed: int = 0) -> dict[str, np.ndarray]:
     return dict(albedo=rng.uniform(0, 1, (h, w, 3)).astype(np.float32), normal=n,
                 depth=rng.uniform(1, 10, (h, w, 1)).astype(np.float32),
                 direct=rng.exponential(1.0, (h, w, 3)).astype(np.float32),
-                ao=rng.uniform(0, 1, (h, w, 1)).astype(np.float32))
+                ao=rng.uniform(0, 1, (h, w, 1)).astype(np.float32),
+                world=np.broadcast_to(rng.uniform(0, 1, 3).astype(np.float32), (h, w, 3)).copy())
 
 
 def _parse_size(s: str) -> tuple[int, int]:

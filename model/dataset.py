@@ -261,10 +261,11 @@ def preview(folder, out, max_samples: int = 12) -> dict:
     names = sorted(m["samples"])[:max_samples]
     if not names:
         raise UserError(f"{folder}: dataset has no samples to preview")
-    cols = ("albedo", "normal", "depth", "direct", "ao", "eevee", "ref")
+    cols = tuple(g for g in ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
+                 if g in stored_groups(m))
     rows = []
     for n in names:
-        g = exrio.read_sample(sample_path(folder, n))
+        g = exrio.read_sample(sample_path(folder, n), cols)
         rows.append(np.concatenate([_tile(c, g[c]) for c in cols], axis=1))
     sheet = np.concatenate(rows, axis=0)
     label_h = 14

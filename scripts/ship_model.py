@@ -19,6 +19,8 @@ ap.add_argument("checkpoint")
 ap.add_argument("--bake-command", required=True)
 ap.add_argument("--bake-commit", required=True)
 ap.add_argument("--out", default=str(ROOT / "models" / "ssgi_default.pt"))
+ap.add_argument("--train-command", default=None,
+                help="the whole training command line(s), when the checkpoint's own (the last run's) is not all")
 a = ap.parse_args()
 ck = torch.load(a.checkpoint, map_location="cpu", weights_only=True)
 for key in ("arch", "inputs", "channel_spec", "normalization", "history", "best", "dataset", "command"):
@@ -41,7 +43,8 @@ meta = {
     "split": ck["dataset"].get("split"),
     "bake_command": a.bake_command,
     "bake_commit": a.bake_commit,
-    "train_command": ck["command"],
+    "train_command": a.train_command or ck["command"],
+    "last_run_command": ck["command"],
     "versions": ck.get("versions"),
     "created": ck.get("created"),
 }

@@ -28,7 +28,7 @@ def scenes(draw, max_side=9, elements=ANY32):
     """Random raw groups (every stored input group) of one random size, any float32 values."""
     h, w = draw(st.integers(1, max_side)), draw(st.integers(1, max_side))
     return {g: draw(arrays(np.float32, (h, w, ch.GROUPS[g].size), elements=elements))
-            for g in ("albedo", "normal", "depth", "direct", "ao")}
+            for g in ch.SAMPLE_GROUPS if g in ch.INPUT_GROUPS}  # albedo normal depth direct ao world
 
 
 # ------------------------------------------------------------------------------------------- normalisation
