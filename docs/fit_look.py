@@ -1,9 +1,11 @@
-"""Contact sheet of a fitted model on its held-out test views: EEVEE direct | fitted prediction | Cycles.
+"""Contact sheet of a fitted model on its held-out test views: EEVEE direct | generic | fitted | Cycles.
 
-    .venv/bin/python docs/fit_look.py MODEL.pt OUT.png
+    .venv/bin/python docs/fit_look.py MODEL.pt OUT.png [--scale 2]
 
-Reads the views folder and the test keys from the checkpoint's fit report (bpy-free).
+Reads the views folder, the test keys and the generic model's path from the checkpoint's fit report
+(bpy-free); the generic column is left out when the fit had no generic model. Prints each view's PSNR.
 """
+import argparse
 import sys
 from pathlib import Path
 
@@ -17,18 +19,34 @@ from ssgi.model import checkpoint, exrio, metrics  # noqa: E402
 from ssgi.model.predict import srgb8, write_png  # noqa: E402
 
 
-def main(model, out):
-    ck = checkpoint.load(model)
-    rep = ck["fit"]
-    pred = checkpoint.load_predictor(model)
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("model")
+    ap.add_argument("out")
+    ap.add_argument("--scale", type=int, default=1, help="repeat each pixel N times (nearest) for viewing")
+    a = ap.parse_args(argv)
+    rep = checkpoint.load(a.model)["fit"]
+    pred = checkpoint.load_predictor(a.model)
+    gpath = (rep.get("generic") or {}).get("path")
+    gen = checkpoint.load_predictor(gpath) if gpath and Path(gpath).is_file() else None
     rows = []
     for key in rep["views"]["test"] or rep["views"]["val"]:
         g = exrio.read_sample(Path(rep["data"]) / f"{key}.exr")
         p = pred.predict(g)
-        print(f"{key}: PSNR {metrics.psnr(p, g['ref']):.2f} dB (EEVEE direct {metrics.psnr(g['eevee'][..., :3], g['ref']):.2f})")
-        rows.append(np.concatenate([srgb8(g["eevee"][..., :3]), srgb8(p), srgb8(g["ref"])], axis=1))
-    write_png(out, np.concatenate(rows, axis=0))
+        cols = [srgb8(g["eevee"][..., :3])]
+        msg = f"{key}: EEVEE direct {metrics.psnr(g['eevee'][..., :3], g['ref']):.2f} dB"
+        if gen is not None:
+            q = gen.predict(g)
+            cols.append(srgb8(q))
+            msg += f", generic {metrics.psnr(q, g['ref']):.2f} dB"
+        cols += [srgb8(p), srgb8(g["ref"])]
+        print(msg + f", fitted {metrics.psnr(p, g['ref']):.2f} dB")
+        rows.append(np.concatenate(cols, axis=1))
+    img = np.concatenate(rows, axis=0)
+    if a.scale > 1:
+        img = img.repeat(a.scale, axis=0).repeat(a.scale, axis=1)
+    write_png(a.out, img)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    main()
