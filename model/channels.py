@@ -125,7 +125,7 @@ def required_groups(spec: tuple[str, ...]) -> tuple[str, ...]:
 
 def required_passes(spec: tuple[str, ...]) -> tuple[str, ...]:
     """Blender view-layer pass flags (``use_pass_*``) needed for ``spec``."""
-    return tuple(GROUPS[g].blender_pass for g in required_groups(spec) if GROUPS[g].blender_pass)
+    return tuple(dict.fromkeys(GROUPS[g].blender_pass for g in required_groups(spec) if GROUPS[g].blender_pass))
 
 
 def describe() -> list[dict]:

@@ -208,6 +208,19 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
                 chosen = data.split_scenes(by_scene, 0.2, 0)[1]
                 notes.append("evaluation scenes: data.split_scenes(scenes, 0.2, seed 0)[1] (no given model records a "
                              "split of this very dataset)")
+    # a model trained on another dataset may have trained on a scene of this one (the same room seed baked
+    # twice): leave out every scene that any given model trained on
+    trained = set()
+    for ck in model_ckpts:
+        trained |= set(((ck.get("dataset") or {}).get("split") or {}).get("train") or ())
+    seen = [sc for sc in chosen if sc in trained]
+    if seen and len(seen) < len(chosen):
+        chosen = [sc for sc in chosen if sc not in trained]
+        notes.append(f"left out {len(seen)} scene(s) that a given model trained on (another dataset's split): "
+                     f"{', '.join(seen[:5])}{' ...' if len(seen) > 5 else ''}")
+    elif seen:
+        notes.append(f"every evaluation scene was a training scene of some given model ({', '.join(seen[:5])}): "
+                     f"they are evaluated anyway, and that model's numbers flatter it")
     keys = [(sc, k) for sc in chosen for k in (by_scene[sc] if per_sample else by_scene[sc][:1])]
     if max_scenes:
         keys = keys[:max_scenes]

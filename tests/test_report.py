@@ -228,6 +228,10 @@ def test_dataset_split_follows_the_models_checkpoint(e2e):
     scenes, _, notes = rr.dataset_scenes(d, [ck])
     assert len(scenes) == 1 and "split_scenes" in notes[0]  # 2 scenes: one goes to validation
     assert [s.name for s in rr.dataset_scenes(d, [], split="all")[0]] == ["room3", "room4"]
+    # a model trained on ANOTHER dataset that held room3 (the same room baked twice): room3 is left out
+    other = {"dataset": {"manifest_sha256": "another dataset", "split": {"train": ["room3", "room9"], "val": []}}}
+    scenes, _, notes = rr.dataset_scenes(d, [other], split="all")
+    assert [s.name for s in scenes] == ["room4"] and any("left out 1 scene(s)" in n and "room3" in n for n in notes)
 
 
 def test_cli_errors_name_the_fault(tmp_path, tiny_models):
