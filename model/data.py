@@ -23,6 +23,7 @@ import torch
 
 from . import channels as ch
 from . import exrio, normalize
+from .dataset import stored_groups
 from .errors import UserError
 
 
@@ -93,7 +94,6 @@ class DatasetFolder(torch.utils.data.Dataset):
         spec = ch.parse_spec(spec)
         m = read_manifest(root)
         groups = tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
-        from .dataset import stored_groups
         lacking = [g for g in groups if g not in stored_groups(m)]
         if lacking:
             raise UserError(f"{root / 'manifest.json'}: this dataset was baked without the group(s) "

@@ -147,8 +147,6 @@ def stored_groups(manifest: dict) -> tuple[str, ...]:
     """The groups every sample of this dataset holds: those its manifest's channel spec lists (a dataset baked
     before an optional group existed does not hold it)."""
     listed = {g.get("name") for g in manifest.get("channel_spec", ()) if isinstance(g, dict) and "channels" in g}
-    if not listed:
-        return tuple(g for g in ch.SAMPLE_GROUPS if g not in ch.OPTIONAL_GROUPS)
     return tuple(g for g in ch.SAMPLE_GROUPS if g in listed or g not in ch.OPTIONAL_GROUPS)
 
 

@@ -14,6 +14,16 @@ def redraw(context) -> None:
         area.tag_redraw()
 
 
+def cancel_state(op, state: dict, what: str) -> set:
+    """The body of a Cancel operator for a main-thread job whose state is a plain dict (the bake's and the
+    render's ``STATE``): ask it to stop after the current unit, or warn that ``what`` is not running."""
+    if state.get("status") != "running":
+        op.report({"WARNING"}, f"no {what} is running")
+        return {"CANCELLED"}
+    state["cancel"] = True
+    return {"FINISHED"}
+
+
 class TimerSteps:
     """Mixin for a modal ``bpy.types.Operator`` (put it first among the bases). The operator implements:
 

@@ -12,7 +12,7 @@ import bpy
 
 from ..model.errors import UserError
 from ..ssgi_addon import bake, room
-from . import TimerSteps
+from . import TimerSteps, cancel_state
 
 
 class SSGI_OT_randomize_room(bpy.types.Operator):
@@ -98,11 +98,7 @@ class SSGI_OT_bake_cancel(bpy.types.Operator):
     bl_label = "Cancel Bake"
 
     def execute(self, context):
-        if bake.STATE.get("status") != "running":
-            self.report({"WARNING"}, "no bake is running")
-            return {"CANCELLED"}
-        bake.STATE["cancel"] = True
-        return {"FINISHED"}
+        return cancel_state(self, bake.STATE, "bake")
 
 
 CLASSES = (SSGI_OT_randomize_room, SSGI_OT_bake_dataset, SSGI_OT_bake_cancel)

@@ -12,7 +12,7 @@ from ..model import channels as ch
 from ..model.errors import UserError
 from ..ssgi_addon import node as ssgi_node
 from ..ssgi_addon import render as ssgi_render
-from . import TimerSteps
+from . import TimerSteps, cancel_state
 
 
 def _compositor_tree(context):
@@ -198,11 +198,7 @@ class SSGI_OT_render_cancel(bpy.types.Operator):
     bl_label = "Cancel SSGI Render"
 
     def execute(self, context):
-        if ssgi_render.STATE.get("status") != "running":
-            self.report({"WARNING"}, "no SSGI render is running")
-            return {"CANCELLED"}
-        ssgi_render.STATE["cancel"] = True
-        return {"FINISHED"}
+        return cancel_state(self, ssgi_render.STATE, "SSGI render")
 
 
 def draw_add_menu(self, context):

@@ -6,6 +6,20 @@
 from __future__ import annotations
 
 
+class RenderPropertiesPanel:
+    """Mixin (before ``bpy.types.Panel``) for panels in Render properties, as Blender's own
+    ``properties_render.RenderButtonsPanel``."""
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+
+class SSGISubPanel(RenderPropertiesPanel):
+    """Mixin for the closed-by-default child panels of the SSGI panel."""
+    bl_parent_id = "SSGI_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+
 def job_state(job) -> dict:
     """The state dict of ``job`` ({} for None)."""
     if job is None:

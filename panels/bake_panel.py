@@ -5,17 +5,12 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon import bake
-from . import draw_error, draw_job, job_running
+from . import SSGISubPanel, draw_error, draw_job, job_running
 
 
-class SSGI_PT_bake(bpy.types.Panel):
+class SSGI_PT_bake(SSGISubPanel, bpy.types.Panel):
     bl_label = "Dataset"
     bl_idname = "SSGI_PT_bake"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
-    bl_parent_id = "SSGI_PT_main"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         layout = self.layout

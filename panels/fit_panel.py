@@ -6,17 +6,12 @@ import bpy
 
 from ..ssgi_addon import fit as sfit
 from ..ssgi_addon import jobs
-from . import draw_error, draw_job, job_running
+from . import SSGISubPanel, draw_error, draw_job, job_running
 
 
-class SSGI_PT_fit(bpy.types.Panel):
+class SSGI_PT_fit(SSGISubPanel, bpy.types.Panel):
     bl_label = "Fit to Scene"
     bl_idname = "SSGI_PT_fit"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
-    bl_parent_id = "SSGI_PT_main"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         layout = self.layout

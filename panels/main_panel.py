@@ -4,14 +4,12 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon import deps
+from . import RenderPropertiesPanel
 
 
-class SSGI_PT_main(bpy.types.Panel):
+class SSGI_PT_main(RenderPropertiesPanel, bpy.types.Panel):
     bl_label = "SSGI"
     bl_idname = "SSGI_PT_main"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
 
     def draw(self, context):
         layout = self.layout

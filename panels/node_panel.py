@@ -6,6 +6,7 @@ import bpy
 
 from ..ssgi_addon import node as ssgi_node
 from ..ssgi_addon import render as ssgi_render
+from . import RenderPropertiesPanel
 
 
 def _draw(layout, context):
@@ -61,12 +62,9 @@ class SSGI_PT_node(bpy.types.Panel):
         _draw(self.layout, context)
 
 
-class SSGI_PT_render(bpy.types.Panel):
+class SSGI_PT_render(RenderPropertiesPanel, bpy.types.Panel):
     bl_label = "SSGI Render"
     bl_idname = "SSGI_PT_render"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
     bl_parent_id = "SSGI_PT_main"
 
     def draw(self, context):

@@ -5,17 +5,12 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon import jobs, training
-from . import draw_error, draw_job, job_running
+from . import SSGISubPanel, draw_error, draw_job, job_running
 
 
-class SSGI_PT_train(bpy.types.Panel):
+class SSGI_PT_train(SSGISubPanel, bpy.types.Panel):
     bl_label = "Train"
     bl_idname = "SSGI_PT_train"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
-    bl_parent_id = "SSGI_PT_main"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         layout = self.layout

@@ -145,16 +145,25 @@ def _direct_only_world(scene, keep_sky: bool = False):
         tmp = _camera_only_world(old_world, "ssgi.camera_only_world")
     if tmp is None:
         tmp = _black_world("ssgi.black_world")
-    probes = [o for o in scene.objects if o.type == "LIGHT_PROBE" and not o.hide_render]
     try:
         scene.world = tmp
-        for o in probes:
-            o.hide_render = True
-        yield
+        with _hidden_from_render(scene, ("LIGHT_PROBE",)):
+            yield
     finally:
         scene.world = old_world
         bpy.data.worlds.remove(tmp)
-        for o in probes:
+
+
+@contextlib.contextmanager
+def _hidden_from_render(scene, types: tuple[str, ...]):
+    """The objects of ``types`` that render are hidden from the render; shown again on exit."""
+    hidden = [o for o in scene.objects if o.type in types and not o.hide_render]
+    try:
+        for o in hidden:
+            o.hide_render = True
+        yield
+    finally:
+        for o in hidden:
             o.hide_render = False
 
 
@@ -301,19 +310,6 @@ def world_is_black(world) -> bool:
     return not col.links and max(col.default_value[:3]) <= 0.0
 
 
-@contextlib.contextmanager
-def _world_light_only(scene):
-    """Lights and light probes hidden from the render, the scene's world as it is; restored on exit."""
-    hidden = [o for o in scene.objects if o.type in ("LIGHT", "LIGHT_PROBE") and not o.hide_render]
-    try:
-        for o in hidden:
-            o.hide_render = True
-        yield
-    finally:
-        for o in hidden:
-            o.hide_render = False
-
-
 # how the `world` group is rendered, recorded in the manifest settings (eevee.world_group)
 WORLD_GROUP_MODE = "diffuse_direct_lights_and_probes_hidden"
 
@@ -330,7 +326,7 @@ def render_world(scene, samples: int = 1) -> np.ndarray:
         w = int(r.resolution_x * r.resolution_percentage / 100)
         return np.zeros((h, w, 3), np.float32)
     configure_gbuffer(scene, ("direct",), samples=samples)
-    with _world_light_only(scene):
+    with _hidden_from_render(scene, ("LIGHT", "LIGHT_PROBE")):  # the scene's world as it is
         passes = _render(scene)
     return _group(passes, "world")[..., :3]
 

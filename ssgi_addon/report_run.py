@@ -292,6 +292,7 @@ class ReportRun:
         self.raw: dict = dict(methods={}, scenes=[], notes=[])
         self.images: dict = {}
         self._warm = False
+        self._world = any(_needs_world(p) for _, p in models)  # the world pass only when a model reads it
         self._steps = 0
         self._t0 = time.perf_counter()
         self.total_steps = len(scenes) * (2 + len(models) + len(GI_PRESETS) + 2 * len(settings.spp)) + settings.reference_scenes
@@ -370,7 +371,7 @@ class ReportRun:
             self._warmup(scene)
         name = es.name
         self.raw["scenes"].append(name)
-        g = es.gbuffer(scene, s.gbuffer_samples)
+        g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
         t_g, t_w = es.t_raster, es.t_world
         self._step(f"{name}: G-buffer {t_g:.2f} s, world pass {t_w:.2f} s")
         mask = normalize.geometry_mask(g["depth"], g["normal"])
@@ -435,7 +436,7 @@ class ReportRun:
             passes.set_resolution(scene, w, h)
             _, t = _timed(passes.render_gbuffer, scene, RASTER_GROUPS, samples=self.s.gbuffer_samples)
             out["gbuffer"].append(dict(size=z, seconds=t))
-            if any(_needs_world(p) for _, p in self._model_keys.values()):
+            if self._world:
                 _, t = _timed(passes.render_world, scene, samples=self.s.gbuffer_samples)
                 out.setdefault("world_pass", []).append(dict(size=z, seconds=t))
             _, t = _timed(passes.render_cycles, scene, 1, seed=LADDER_SEED, denoise=True)
@@ -471,7 +472,7 @@ class ReportRun:
             cam.location = loc0 + x_axis * (0.4 * t)
             cam.rotation_euler = (rot0.x, rot0.y, rot0.z + math.radians(8) * t)
             bpy.context.view_layer.update()
-            g = es.gbuffer(scene, s.gbuffer_samples)
+            g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
             seqs.setdefault("EEVEE direct light only", []).append(g["eevee"][..., :3])
             for key, (path, pred) in self._model_keys.items():
                 seqs.setdefault(self.raw["methods"][key]["label"], []).append(pred.predict(g))

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -105,16 +105,18 @@ def test_tonemap_and_its_inverse(x):
 
 @FAST
 @given(v=st.floats(allow_nan=True, allow_infinity=True))
+@example(v=2.0 ** 53 - 1)
+@example(v=2.0 ** 53)  # the boundary hypothesis once found: 1 + x rounds to x
 def test_tonemap_of_any_float_is_defined(v):
     """Case 11: NaN and negative values tonemap to 0, +Inf to 1, everything else into [0, 1] (1 only where
-    x / (1 + x) rounds to 1 in float64, x > 2^53)."""
+    x / (1 + x) rounds to 1 in float64: x >= 2^53, where 1 + x rounds back to x)."""
     y = float(metrics.tonemap(np.array([v]))[0])
     if np.isnan(v) or v <= 0:
         assert y == 0.0
     elif np.isinf(v):
         assert y == 1.0
     else:
-        assert 0.0 <= y <= 1.0 and (y < 1.0 or v > 2.0 ** 53)
+        assert 0.0 <= y <= 1.0 and (y < 1.0) == (v < 2.0 ** 53)
     assert float(metrics.inverse_tonemap(np.array([y]))[0]) >= 0
 
 
