@@ -4,6 +4,7 @@ Two references of the same room with different Cycles seeds; PSNR between them b
 (linear RGB clamped to [0,1], MSE pooled over the image), and seconds per reference.
 
     .venv/bin/python benchmarks/ref_agreement.py --rooms 0 1 2 --spp 8 16 32 --size 240x135
+    .venv/bin/python benchmarks/ref_agreement.py --rooms 1 --spp 1024 --raw-only   # no OIDN (the default)
 """
 import argparse
 import json
@@ -27,7 +28,9 @@ ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])
 ap.add_argument("--spp", type=int, nargs="+", default=[8, 16, 32])
 ap.add_argument("--size", type=parse_size, default=(240, 135))
 ap.add_argument("--raw", action="store_true", help="also without OIDN")
+ap.add_argument("--raw-only", action="store_true", help="only without OIDN")
 a = ap.parse_args()
+MODES = [False] if a.raw_only else ([True, False] if a.raw else [True])
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 rows = []
@@ -35,7 +38,7 @@ for r in a.rooms:
     room.build_room(r, scene)
     passes.set_resolution(scene, *a.size)
     for spp in a.spp:
-        for dn in ([True, False] if a.raw else [True]):
+        for dn in MODES:
             imgs, ts = [], []
             for seed in (1, 2):
                 t = time.perf_counter()
@@ -48,7 +51,7 @@ for r in a.rooms:
             print(json.dumps(row), flush=True)
 print("summary (min PSNR over rooms, mean seconds):", file=sys.stderr)
 for spp in a.spp:
-    for dn in ([True, False] if a.raw else [True]):
+    for dn in MODES:
         sel = [x for x in rows if x["spp"] == spp and x["denoise"] == dn]
         print(f"  spp={spp:4d} denoise={dn}: min {min(x['psnr'] for x in sel):.2f} dB, "
               f"mean {np.mean([x['psnr'] for x in sel]):.2f} dB, {np.mean([x['seconds'] for x in sel]):.2f} s",

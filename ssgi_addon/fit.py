@@ -184,7 +184,7 @@ def cli_command(*args: str) -> list[str]:
     return [bpy.app.binary_path, "--background", "--factory-startup", "--python", cli, "--", *args]
 
 
-# The views' references: 16 spp + OIDN, not the baker's default (64), to keep the whole fit within its
+# The views' references: 16 spp + OIDN, not the baker's default (1024 raw), to keep the whole fit within its
 # 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the fitted
 # models' error (25-35 dB).
 FIT_REF_SAMPLES = 16
@@ -195,7 +195,7 @@ def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None =
     a child process (the baker resumes a half-done folder)."""
     cmd = cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
                       "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
-    cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES)]
+    cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")
     p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_child_env(),
                        preexec_fn=_die_with_parent)

@@ -45,9 +45,14 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
     bake_width: bpy.props.IntProperty(name="Width", default=_bake.DEFAULT_SIZE[0], min=1, max=16384, subtype="PIXEL")
     bake_height: bpy.props.IntProperty(name="Height", default=_bake.DEFAULT_SIZE[1], min=1, max=16384, subtype="PIXEL")
     bake_ref_samples: bpy.props.IntProperty(name="Reference Samples", default=_bake.DEFAULT_REF_SAMPLES, min=1,
-                                            soft_max=4096, description="Cycles samples per pixel of the reference")
+                                            soft_max=4096,
+                                            description="Cycles samples per pixel of the reference. Measured: "
+                                                        f"{_bake.DEFAULT_REF_SAMPLES} raw (the default, ~4-5 min a "
+                                                        f"240x135 room here) or {_bake.DENOISED_REF_SAMPLES} with "
+                                                        "Denoise (~3 s) agree between two seeds to >= 40 dB")
     bake_denoise: bpy.props.BoolProperty(name="Denoise Reference", default=_bake.DEFAULT_DENOISE,
-                                         description="Denoise the Cycles reference with OpenImageDenoise")
+                                         description="Denoise the Cycles reference with OpenImageDenoise (off by "
+                                                     "default; recorded in the dataset's manifest)")
 
 
 CLASSES = (SSGI_SceneSettings,)

@@ -57,7 +57,8 @@ def register_cli(sub) -> None:
     p.add_argument("--size", type=cliargs.parse_size, default=None,
                    help="bake size with --scenes (default: the baker's, 240x135); a dataset's own size otherwise")
     p.add_argument("--ref-samples", type=cliargs.positive_int, default=None,
-                   help="reference samples with --scenes (default: the baker's); a dataset's own setting otherwise")
+                   help="reference samples with --scenes, denoised with OIDN (default 64: two seeds agree to "
+                        ">= 40 dB, docs/bake.md); a dataset's own setting otherwise")
     p.add_argument("--reference-scenes", type=cliargs.nonnegative_int, default=1,
                    help="re-render the reference (another seed) on this many scenes, for its time (default 1)")
     p.add_argument("--eevee-samples", type=cliargs.positive_int, default=64,
@@ -117,7 +118,7 @@ def _bake_scenes(args, out: Path):
     t = time.perf_counter()
     rr.log(f"baking {len(args.scenes)} .blend file(s) into {data} (cli.py bake --scenes)")
     res = bake.bake(data, scenes=[str(p) for p in args.scenes], size=size,
-                    ref_samples=args.ref_samples or bake.DEFAULT_REF_SAMPLES,
+                    ref_samples=args.ref_samples or bake.DENOISED_REF_SAMPLES, denoise=True,
                     progress=lambda done, total, info: rr.log(f"bake {done}/{total}: {info}"))
     scenes, over, notes = rr.dataset_scenes(data, (), args.max_scenes, "all", per_sample=True)
     notes.append(f"--scenes: baked by ssgi_addon/bake.py into {data} ({res['baked']} baked, {res['skipped']} already "

@@ -247,6 +247,13 @@ def build_room(seed: int, scene=None):
     scene.camera = o
 
     # the world: seen (and lighting the room) only through an open side
+    old = scene.world
+    if old is not None and old.get("ssgi_room"):
+        # removed before the new one is made, so that the new world is always named "ssgi.world" (not
+        # "ssgi.world.001" after every other room)
+        scene.world = None
+        if old.users == 0:
+            bpy.data.worlds.remove(old)
     world = bpy.data.worlds.new(f"{PREFIX}world")
     world["ssgi_room"] = True
     wt = world.node_tree
@@ -258,10 +265,7 @@ def build_room(seed: int, scene=None):
     bg.inputs["Color"].default_value = (*prm["world"]["colour"], 1.0)
     bg.inputs["Strength"].default_value = strength
     world.color = tuple(x * strength for x in prm["world"]["colour"])
-    old = scene.world
     scene.world = world
-    if old is not None and old.get("ssgi_room") and old.users == 0:
-        bpy.data.worlds.remove(old)
     scene.view_settings.view_transform = "Standard"
     scene["ssgi_room_seed"] = int(seed)
     return scene

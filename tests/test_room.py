@@ -170,3 +170,14 @@ def test_clear_room_removes_everything_it_added(factory_bpy):
     assert not any(o.get("ssgi_room") for o in scene.objects)
     assert not [m for m in bpy.data.materials if m.get("ssgi_room")]
     assert not [m for m in bpy.data.meshes if m.get("ssgi_room")]
+
+
+def test_rebuilding_rooms_in_one_scene_keeps_one_world_with_one_name(factory_bpy):
+    """A room replaced by another leaves one world, always named ssgi.world (it alternated with
+    ssgi.world.001 before: the new world was made while the old one still existed)."""
+    bpy = factory_bpy
+    scene = bpy.context.scene
+    for seed in (0, 1, 2, 3):
+        room.build_room(seed, scene)
+        assert scene.world.name == "ssgi.world"
+        assert [w.name for w in bpy.data.worlds if w.get("ssgi_room")] == ["ssgi.world"]
