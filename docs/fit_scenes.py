@@ -72,6 +72,11 @@ def cornell(out: str) -> None:
     sc.frame_set(1)
     world = bpy.data.worlds.new("World")
     world.color = (0.0, 0.0, 0.0)
+    # a new world in 5.0 has a node tree whose Background is 0.05 grey: the colour alone left the sky lit
+    for n in (world.node_tree.nodes if world.node_tree else ()):
+        if n.bl_idname == "ShaderNodeBackground":
+            n.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+            n.inputs["Strength"].default_value = 0.0
     sc.world = world
     sc.render.resolution_x, sc.render.resolution_y = 1920, 1080
     bpy.ops.wm.save_as_mainfile(filepath=str(Path(out).resolve()))
