@@ -309,11 +309,8 @@ class BakeSession:
         sc = self.scene
         if sc is None or sc.name not in bpy.data.scenes:
             return
-        room.clear_room(sc)
-        world = sc.world
+        room.clear_room(sc)  # its world too
         bpy.data.scenes.remove(sc)
-        if world is not None and world.get("ssgi_room") and world.users == 0:
-            bpy.data.worlds.remove(world)
         self.scene = None
 
 

@@ -182,7 +182,10 @@ def _link(scene, obj) -> bpy.types.Object:
 
 
 def clear_room(scene) -> None:
-    """Remove the objects, meshes, materials, lights and camera a previous ``build_room`` added."""
+    """Remove the objects, meshes, materials, lights, camera and world a previous ``build_room`` added."""
+    if scene.world is not None and scene.world.get("ssgi_room"):
+        # detached, so that it is removed below; the next room's world is then always named "ssgi.world"
+        scene.world = None
     objs = [o for o in scene.objects if o.get("ssgi_room")]
     data = [o.data for o in objs if o.data is not None]
     bpy.data.batch_remove(objs)
@@ -247,13 +250,6 @@ def build_room(seed: int, scene=None):
     scene.camera = o
 
     # the world: seen (and lighting the room) only through an open side
-    old = scene.world
-    if old is not None and old.get("ssgi_room"):
-        # removed before the new one is made, so that the new world is always named "ssgi.world" (not
-        # "ssgi.world.001" after every other room)
-        scene.world = None
-        if old.users == 0:
-            bpy.data.worlds.remove(old)
     world = bpy.data.worlds.new(f"{PREFIX}world")
     world["ssgi_room"] = True
     wt = world.node_tree

@@ -170,6 +170,7 @@ def test_clear_room_removes_everything_it_added(factory_bpy):
     assert not any(o.get("ssgi_room") for o in scene.objects)
     assert not [m for m in bpy.data.materials if m.get("ssgi_room")]
     assert not [m for m in bpy.data.meshes if m.get("ssgi_room")]
+    assert scene.world is None and not [w for w in bpy.data.worlds if w.get("ssgi_room")]
 
 
 def test_rebuilding_rooms_in_one_scene_keeps_one_world_with_one_name(factory_bpy):
