@@ -40,10 +40,10 @@ def ratios(e, c):
 
 worst = 0.0
 for r in a.rooms:
-    room.build_room(r, scene)
     if room.room_params(r)["open_side"]:
         print(f"room {r}: has an open side; the test is for closed rooms, skipped", file=sys.stderr)
         continue
+    room.build_room(r, scene)
     passes.set_resolution(scene, *a.size)
     e = passes.render_gbuffer(scene, ("direct",))["direct"]
     row = dict(room=r, lights=sorted(o.data.type for o in scene.objects if o.type == "LIGHT"),
