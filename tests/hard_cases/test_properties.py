@@ -106,17 +106,24 @@ def test_tonemap_and_its_inverse(x):
 @FAST
 @given(v=st.floats(allow_nan=True, allow_infinity=True))
 @example(v=2.0 ** 53 - 1)
-@example(v=2.0 ** 53)  # the boundary hypothesis once found: 1 + x rounds to x
+@example(v=2.0 ** 53)      # 1 + x rounds back to x: y == 1
+@example(v=2.0 ** 53 + 2)  # 1 + x rounds up to x + 4 (ties to even): y == 1 - 2^-52, CI found it
+@example(v=float(np.finfo(np.float64).max))
 def test_tonemap_of_any_float_is_defined(v):
-    """Case 11: NaN and negative values tonemap to 0, +Inf to 1, everything else into [0, 1] (1 only where
-    x / (1 + x) rounds to 1 in float64: x >= 2^53, where 1 + x rounds back to x)."""
+    """Case 11: NaN and negative values tonemap to 0, +Inf to 1, every finite x > 0 into (0, 1].
+
+    What float64 guarantees for y = x / (1 + x): below 2^53, 1 + x is exact or rounds up and the true
+    1 - 1/(1 + x) <= 1 - 2^-53 is representable, so y < 1. From 2^53 on, 1 + x rounds to x or to x + ulp(x)
+    (ties to even), so y is 1 or the true x / (x + ulp) > 1 - 2^-52 rounded: either way y >= 1 - 2^-52."""
     y = float(metrics.tonemap(np.array([v]))[0])
     if np.isnan(v) or v <= 0:
         assert y == 0.0
     elif np.isinf(v):
         assert y == 1.0
+    elif v < 2.0 ** 53:
+        assert 0.0 < y < 1.0  # 1 + x == 1 for tiny x, and then y == x > 0
     else:
-        assert 0.0 <= y <= 1.0 and (y < 1.0) == (v < 2.0 ** 53)
+        assert 1.0 - 2.0 ** -52 <= y <= 1.0
     assert float(metrics.inverse_tonemap(np.array([y]))[0]) >= 0
 
 
