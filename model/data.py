@@ -23,30 +23,21 @@ import torch
 
 from . import channels as ch
 from . import exrio, normalize
-from .dataset import stored_groups
+from .dataset import MANIFEST, stored_groups
+from .dataset import read_manifest as read_dataset_manifest
 from .errors import UserError
 
 
 def read_manifest(root) -> dict:
+    """The manifest of a dataset folder, for reading samples: dataset.read_manifest's checks (one reader of the
+    format), plus the folder's own and the scene id each sample needs for the train/validation split."""
     root = Path(root)
-    path = root / "manifest.json"
+    path = root / MANIFEST
     if not root.is_dir():
         raise UserError(f"{root}: dataset folder does not exist")
     if not path.is_file():
         raise UserError(f"{path}: no manifest.json in the dataset folder (bake one with `cli.py bake`)")
-    try:
-        m = json.loads(path.read_text())
-    except (OSError, ValueError) as e:
-        raise UserError(f"{path}: not a readable JSON manifest ({e})") from None
-    if not isinstance(m, dict) or not isinstance(m.get("samples"), dict):
-        raise UserError(f"{path}: manifest has no 'samples' table")
-    v = m.get("format_version")
-    if not isinstance(v, int):
-        raise UserError(f"{path}: manifest has no integer 'format_version'")
-    if v > ch.FORMAT_VERSION:
-        raise UserError(f"{path}: manifest format_version {v} is newer than this SSGI reads ({ch.FORMAT_VERSION}); update SSGI")
-    if v < ch.FORMAT_VERSION:
-        raise UserError(f"{path}: manifest format_version {v} is older than {ch.FORMAT_VERSION}; re-bake the dataset")
+    m = read_dataset_manifest(path)
     for key, s in m["samples"].items():
         if not isinstance(s, dict) or "scene" not in s:
             raise UserError(f"{path}: sample {key!r} has no 'scene' id")

@@ -57,13 +57,16 @@ def read_manifest(path) -> dict:
         raise UserError(f"{path}: no manifest (is this a dataset folder?)") from None
     except (OSError, ValueError) as e:
         raise UserError(f"{path}: not a readable manifest ({e})") from None
-    if not isinstance(m, dict) or "format_version" not in m or "samples" not in m:
-        raise UserError(f"{path}: not an SSGI dataset manifest (no format_version/samples)")
-    if m["format_version"] != ch.FORMAT_VERSION:
-        newer = isinstance(m["format_version"], int) and m["format_version"] > ch.FORMAT_VERSION
-        raise UserError(f"{path}: dataset format version {m['format_version']} is "
-                        f"{'newer than' if newer else 'not'} this SSGI's ({ch.FORMAT_VERSION}); "
-                        f"{'update SSGI' if newer else 'rebake the dataset'}")
+    if not isinstance(m, dict) or "format_version" not in m or not isinstance(m.get("samples"), dict):
+        raise UserError(f"{path}: not an SSGI dataset manifest (no format_version, or no 'samples' table)")
+    v = m["format_version"]
+    if not isinstance(v, int) or isinstance(v, bool):
+        raise UserError(f"{path}: manifest has no integer 'format_version' ({v!r})")
+    if v > ch.FORMAT_VERSION:
+        raise UserError(f"{path}: manifest format_version {v} is newer than this SSGI reads ({ch.FORMAT_VERSION}); "
+                        "update SSGI")
+    if v < ch.FORMAT_VERSION:
+        raise UserError(f"{path}: manifest format_version {v} is older than {ch.FORMAT_VERSION}; re-bake the dataset")
     return m
 
 

@@ -8,6 +8,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model import checkpoint, data, exrio, network, synthetic
+from ssgi.model import dataset as ds_mod
 from ssgi.model.baseline import fit, run_baseline
 from ssgi.model.errors import UserError
 from ssgi.model.train import Diverged, TrainConfig, Trainer
@@ -51,6 +52,21 @@ def test_dataset_errors_name_the_file(tmp_path, dataset_dir):
     (d / "manifest.json").write_text(json.dumps(m))
     with pytest.raises(UserError, match=r"manifest.json: manifest format_version \d+ is newer"):
         data.DatasetFolder.load(d)
+    # one reader of the format (model/dataset.read_manifest) serves training, the baker and verify alike
+    for bad, says in ((ch.FORMAT_VERSION - 1, rf"format_version {ch.FORMAT_VERSION - 1} is older than "
+                       rf"{ch.FORMAT_VERSION}; re-bake"), ("3", r"has no integer 'format_version' \('3'\)"),
+                      (True, r"has no integer 'format_version' \(True\)")):
+        (d / "manifest.json").write_text(json.dumps(dict(m, format_version=bad)))
+        for read in (data.read_manifest, lambda root: ds_mod.load_manifest(root)):
+            with pytest.raises(UserError, match=r"manifest.json: manifest " + says):
+                read(d)
+    (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION, samples=[])))
+    with pytest.raises(UserError, match=r"manifest.json: not an SSGI dataset manifest .*no 'samples' table"):
+        data.read_manifest(d)
+    (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION,
+                                                     samples={"000000": {"seed": 1}})))
+    with pytest.raises(UserError, match=r"manifest.json: sample '000000' has no 'scene' id"):
+        data.read_manifest(d)
     m["format_version"] = ch.FORMAT_VERSION
     (d / "manifest.json").write_text(json.dumps(m))
     (d / "000001.exr").unlink()
