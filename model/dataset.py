@@ -16,6 +16,7 @@ import json
 import math
 import os
 import re
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +97,17 @@ def check_compatible(manifest: dict, settings: dict, where) -> None:
                                 f"bake into another folder (datasets of different settings are never mixed)")
 
 
+def _check_writable(folder: Path) -> None:
+    """Write and delete a probe file: os.access says yes to root even on folders that refuse every write
+    (read-only mounts aside), so only a real write tells."""
+    try:
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".ssgi-write-test-", suffix=".tmp")
+    except OSError as e:
+        raise UserError(f"--out {folder}: folder is not writable ({e.strerror})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
 def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> dict:
     """Create or reopen a dataset folder for baking; returns its (shard) manifest. Refuses foreign folders."""
     folder = Path(folder)
@@ -105,11 +117,11 @@ def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> 
         parent = folder.parent
         if not parent.is_dir():
             raise UserError(f"--out {folder}: parent folder {parent} does not exist")
-        if not os.access(parent, os.W_OK):
-            raise UserError(f"--out {folder}: parent folder {parent} is not writable")
-        folder.mkdir()
-    if not os.access(folder, os.W_OK):
-        raise UserError(f"--out {folder}: folder is not writable")
+        try:
+            folder.mkdir()
+        except OSError as e:
+            raise UserError(f"--out {folder}: cannot create the folder in {parent} ({e.strerror})") from None
+    _check_writable(folder)
     name = shard_manifest_name(shard)
     mpath = folder / name
     manifests = sorted(folder.glob("manifest*.json"))

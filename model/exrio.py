@@ -47,6 +47,8 @@ def write_exr(path, planes: dict[str, np.ndarray], half: bool = True, header: di
         with OpenEXR.File(hdr, chans) as f:
             f.write(str(tmp))
         os.replace(tmp, path)
+    except RuntimeError as e:  # the binding's write errors ("Failed to write pixel data ... File too large.")
+        raise OSError(f"{path}: could not write the OpenEXR file ({e})") from None
     finally:
         if tmp.exists():
             tmp.unlink()

@@ -180,13 +180,19 @@ def iter_bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_sample
         else:
             room.build_room(info["seed"], scene)
         passes.set_resolution(scene, w, h)
-        groups, timings = render_sample(scene, ref_samples, denoise, eevee_samples, ref_seed=info["seed"],
-                                        keep_sky=keep_sky, eevee_groups=eevee_groups)
-        exrio.write_sample(ds.sample_path(out, name), groups, half=settings["half"],
-                           header={"ssgi_seed": info["seed"], "ssgi_scene": info["scene"]})
-        manifest["samples"][name] = dict(info, timings=timings)
-        manifest["samples"] = dict(sorted(manifest["samples"].items()))
-        ds.write_manifest(out, manifest, mname)
+        kept = len(manifest["samples"])
+        try:
+            groups, timings = render_sample(scene, ref_samples, denoise, eevee_samples, ref_seed=info["seed"],
+                                            keep_sky=keep_sky, eevee_groups=eevee_groups)
+            exrio.write_sample(ds.sample_path(out, name), groups, half=settings["half"],
+                               header={"ssgi_seed": info["seed"], "ssgi_scene": info["scene"]})
+            manifest["samples"][name] = dict(info, timings=timings)
+            manifest["samples"] = dict(sorted(manifest["samples"].items()))
+            ds.write_manifest(out, manifest, mname)
+        except OSError as e:  # disk full, quota, folder gone: nothing half-written is left under a final name
+            raise UserError(f"--out {out}: could not bake sample {name}: {e}. The {kept} sample(s) listed in "
+                            f"{mname} are complete; free space or mend the folder, then run the same command "
+                            f"again to resume") from None
         done += 1
         elapsed = time.perf_counter() - t_start
         yield {"event": "sample", "done": done, "todo": len(todo), "sample": name, "seed": info["seed"],

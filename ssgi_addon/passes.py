@@ -274,8 +274,14 @@ def _render(scene) -> dict[str, dict[str, np.ndarray]]:
             # process killed while rendering leaves nothing behind (docs/hard_cases.md)
             fd, path = tempfile.mkstemp(prefix=f"ssgi-render-{os.getpid()}-", suffix=".exr")
             os.close(fd)
-            img.save_render(path, scene=scene)
-        return read_multilayer(path)
+            try:
+                img.save_render(path, scene=scene)
+                # A failed write (a full disk) does not raise: Blender logs "IMB_exr_write_channels: Failed to
+                # write pixel data" and leaves the file empty or cut short, which the read finds.
+                return read_multilayer(path)
+            except RuntimeError as e:
+                raise OSError(f"{path}: Blender could not save the render in the temporary folder "
+                              f"{tempfile.gettempdir()} (is the disk full? Blender's log above says why): {e}") from None
     finally:
         if path is not None:
             with contextlib.suppress(OSError):

@@ -5,7 +5,9 @@ Cycles' Diffuse Direct pass of the same room with the same small lights)."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -159,6 +161,13 @@ def test_bad_input_is_refused_with_nothing_lost(baked, tmp_path, factory_bpy):
     refused("bake", "--out", str(out), "--size", "0x5", says=["--size", "width 0"])
     refused("bake", "--out", str(tmp_path / "no" / "such"), "--count", "1", says=["does not exist"])
     assert not out.exists() and not (tmp_path / "no").exists()
+    # an unwritable folder, found by a real write (chmod does not stop root; /proc stops everyone)
+    ro = Path("/proc/self/fdinfo") if os.geteuid() == 0 else tmp_path / "ro"
+    if ro.parent == tmp_path:
+        ro.mkdir()
+        ro.chmod(0o555)
+    refused("bake", "--out", str(ro), "--count", "1", says=[f"--out {ro}: folder is not writable"])
+    refused("bake", "--out", str(ro / "new"), "--count", "1", says=[f"--out {ro / 'new'}: cannot create the folder in {ro}"])
     foreign = tmp_path / "photos"
     foreign.mkdir()
     (foreign / "holiday.jpg").write_bytes(b"\xff\xd8 a photo")
@@ -170,6 +179,12 @@ def test_bad_input_is_refused_with_nothing_lost(baked, tmp_path, factory_bpy):
     other = [a if a != "2" or i != len(BAKE) - 1 else "3" for i, a in enumerate(BAKE)]  # --ref-samples 3
     refused(*other, "--out", str(d), says=["ref_samples=2", "not ref_samples=3", "manifest.json"])
     refused(*BAKE[:-2], "--ref-samples", "2", "--denoise", "--out", str(d), says=["denoise=False", "not denoise=True"])
+    assert _files(d) == before
+    m = json.loads((d / "manifest.json").read_text())
+    (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION - 1)))
+    before = _files(d)
+    refused(*BAKE, "--out", str(d), says=[f"{d / 'manifest.json'}: manifest format_version {ch.FORMAT_VERSION - 1} "
+                                          f"is older than {ch.FORMAT_VERSION}; re-bake"])
     assert _files(d) == before
     # --scenes: an unreadable .blend, a scene with no camera; the output folder is never created
     junk = tmp_path / "junk.blend"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..conftest import clean, run_cli
+from ..conftest import clean, run_cli, run_py
 from ..test_node import room  # noqa: F401  (fixture: a 64x36, 3-frame room .blend with SSGI set up)
 from .conftest import kill_at_random
 
@@ -53,6 +53,53 @@ def test_killed_bake_reruns_to_a_valid_dataset_with_the_same_pixels(tmp_path):
     strip = lambda m: {k: {kk: vv for kk, vv in s.items() if kk != "timings"} for k, s in m["samples"].items()}
     assert strip(ma) == strip(mb) and ma["settings"] == mb["settings"]
     assert all(np.std(s["ref"]) > 0 for s in sa.values())  # real rooms, not blank frames
+
+
+# A write that fails in the middle of a bake (no mock: the OS refuses it). The first sample is baked, then
+# either the process may write no more bytes (RLIMIT_FSIZE 0, as a full disk: Blender's save of the render to
+# the temporary folder fails first) or the dataset folder is moved away (the sample's write fails).
+_FAIL_AFTER_ONE = """
+import os, resource, sys
+from ssgi.ssgi_addon import bake
+from ssgi.model.errors import UserError
+out, how = sys.argv[1], sys.argv[2]
+def progress(done, total, info):
+    if done == 1 and how == "full":
+        resource.setrlimit(resource.RLIMIT_FSIZE, (0, resource.RLIM_INFINITY))  # SIGXFSZ: Python ignores it
+    elif done == 1:
+        os.rename(out, out + ".moved")
+try:
+    bake.bake(out, count=3, seed=11, size=(32, 18), ref_samples=2, progress=progress)
+except UserError as e:
+    print(e)
+    sys.exit(2)
+"""
+
+
+def test_a_write_failure_mid_bake_is_a_clear_error_and_the_same_command_resumes(tmp_path):
+    """No data lost: a bake whose writes start failing after its first sample stops with a UserError that
+    names the folder, the sample and the cause and says how many samples are complete; the first sample and
+    the manifest are intact; the same bake run again (once the fault is mended) skips it and completes a
+    dataset that `cli.py verify` passes, with no temporary file left."""
+    for how, cause in (("full", "could not save the render in the temporary folder"), ("gone", "000001.exr: could not write the OpenEXR file")):
+        out = tmp_path / how
+        p = run_py(_FAIL_AFTER_ONE, str(out), how, check=False, timeout=850)
+        assert p.returncode == 2, clean(p.stderr)[-3000:]
+        msg = p.stdout
+        assert f"--out {out}: could not bake sample 000001: " in msg and cause in msg, msg
+        assert "The 1 sample(s) listed in manifest.json are complete" in msg and "Traceback" not in p.stderr
+        if how == "gone":
+            (tmp_path / "gone.moved").rename(out)
+        first = (out / "000000.exr").read_bytes()
+        assert json.loads((out / "manifest.json").read_text())["samples"].keys() == {"000000"}
+        r = run_cli("bake", "--out", str(out), *BAKE[:-1], "--json", timeout=850)  # BAKE less --no-denoise
+        res = json.loads(r.stdout)
+        assert (res["baked"], res["skipped"]) == (2, 1), res
+        assert (out / "000000.exr").read_bytes() == first
+        v = run_cli("verify", str(out), "--json", check=False)
+        assert v.returncode == 0, clean(v.stderr)[-3000:]
+        assert _no_temps(out) == [] and sorted(p.name for p in out.glob("*.exr")) == \
+            ["000000.exr", "000001.exr", "000002.exr"]
 
 
 # ------------------------------------------------------------------------------------------- render
