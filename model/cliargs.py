@@ -140,6 +140,13 @@ def positive_float(text: str) -> float:
     return v
 
 
+def nonnegative_float(text: str) -> float:
+    v = _float(text)
+    if v < 0:
+        raise ArgError(f"{text!r} must be >= 0")
+    return v
+
+
 def unit_float(text: str) -> float:
     """A number in [0, 1]."""
     v = _float(text)

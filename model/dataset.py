@@ -28,7 +28,7 @@ from .errors import UserError
 MANIFEST = "manifest.json"
 SAMPLE_RE = re.compile(r"^(\d{6})\.exr$")
 # settings that must agree for samples to share one folder
-IDENTITY_SETTINGS = ("kind", "size", "ref_samples", "denoise", "eevee_samples", "diffuse_bounces", "first_seed",
+IDENTITY_SETTINGS = ("kind", "size", "ref_samples", "ref_target_db", "denoise", "eevee_samples", "diffuse_bounces", "first_seed",
                      "scenes", "frames", "half")
 
 
@@ -89,12 +89,12 @@ def write_manifest(folder, manifest: dict, name: str = MANIFEST) -> None:
 def check_compatible(manifest: dict, settings: dict, where) -> None:
     """Refuse to mix samples baked with other settings into one folder."""
     old = manifest.get("settings", {})
-    for k in IDENTITY_SETTINGS:
-        if k in settings or k in old:
-            a, b = old.get(k), settings.get(k)
-            if json.dumps(a, sort_keys=True) != json.dumps(b, sort_keys=True):
-                raise UserError(f"{where}: holds a dataset baked with {k}={a!r}, not {k}={b!r}; "
-                                f"bake into another folder (datasets of different settings are never mixed)")
+    diff = [f"{k}={old.get(k)!r} (not {k}={settings.get(k)!r})" for k in IDENTITY_SETTINGS
+            if (k in settings or k in old)
+            and json.dumps(old.get(k), sort_keys=True) != json.dumps(settings.get(k), sort_keys=True)]
+    if diff:
+        raise UserError(f"{where}: holds a dataset baked with {', '.join(diff)}; "
+                        f"bake into another folder (datasets of different settings are never mixed)")
 
 
 def _check_writable(folder: Path) -> None:

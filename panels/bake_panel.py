@@ -35,6 +35,9 @@ class SSGI_PT_bake(SSGISubPanel, bpy.types.Panel):
         row.prop(s, "bake_width")
         row.prop(s, "bake_height")
         col.prop(s, "bake_ref_samples")
+        row = col.row()
+        row.active = not s.bake_denoise  # with Denoise the reference takes exactly Reference Samples
+        row.prop(s, "bake_ref_target_db")
         col.prop(s, "bake_denoise")
 
         if draw_job(layout, st, bake.status_text, "ssgi.bake_cancel", lines=lambda st: [st.get("message", "")[:120]]):

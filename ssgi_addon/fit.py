@@ -184,9 +184,9 @@ def cli_command(*args: str) -> list[str]:
     return [bpy.app.binary_path, "--background", "--factory-startup", "--python", cli, "--", *args]
 
 
-# The views' references: 16 spp + OIDN, not the baker's default (4096 raw), to keep the whole fit within its
-# 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the fitted
-# models' error (25-35 dB).
+# The views' references: 16 spp + OIDN, not the baker's default (raw, up to 4096 spp), to keep the whole fit
+# within its 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the
+# fitted models' error (25-35 dB).
 FIT_REF_SAMPLES = 16
 
 

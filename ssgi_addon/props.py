@@ -46,10 +46,16 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
     bake_height: bpy.props.IntProperty(name="Height", default=_bake.DEFAULT_SIZE[1], min=1, max=16384, subtype="PIXEL")
     bake_ref_samples: bpy.props.IntProperty(name="Reference Samples", default=_bake.DEFAULT_REF_SAMPLES, min=1,
                                             soft_max=4096,
-                                            description="Cycles samples per pixel of the reference. Measured: "
-                                                        f"{_bake.DEFAULT_REF_SAMPLES} raw (the default, ~4-5 min a "
-                                                        f"240x135 room here) or {_bake.DENOISED_REF_SAMPLES} with "
-                                                        "Denoise (~3 s) agree between two seeds to >= 40 dB")
+                                            description="Cycles samples per pixel of the reference: the most it "
+                                                        "may take to reach Target Agreement, or exactly this many "
+                                                        "with a target of 0 or with Denoise "
+                                                        f"({_bake.DENOISED_REF_SAMPLES} with Denoise agree to >= 40 "
+                                                        "dB, ~3 s a 240x135 room here)")
+    bake_ref_target_db: bpy.props.FloatProperty(name="Target Agreement (dB)", default=_bake.DEFAULT_REF_TARGET_DB,
+                                                min=0.0, soft_max=60.0,
+                                                description="Render the raw reference as two halves of different "
+                                                            "seeds, doubling them until two such references would "
+                                                            "agree to this PSNR (0: a fixed Reference Samples)")
     bake_denoise: bpy.props.BoolProperty(name="Denoise Reference", default=_bake.DEFAULT_DENOISE,
                                          description="Denoise the Cycles reference with OpenImageDenoise (off by "
                                                      "default; recorded in the dataset's manifest)")

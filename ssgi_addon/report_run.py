@@ -240,7 +240,11 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
             raise UserError(f"{root / 'manifest.json'}: sample {key} names neither a room seed nor a .blend file")
         out.append(EvalScene(name=name, open=opener, ref=stored[ch.TARGET_GROUP][..., :3], meta=dict(meta, key=key),
                              exposure=float(meta.get("exposure", 1.0)), stored_eevee=stored["eevee"][..., :3]))
-    over = dict(size=size, ref_samples=int(st.get("ref_samples") or 32), ref_denoise=bool(st.get("denoise", False)),
+    # a bake with an agreement target records each reference's own samples: the second reference takes as many
+    spps = sorted(int(m["samples"][k]["reference"]["samples"]) for _sc, k in keys
+                  if isinstance(m["samples"][k].get("reference"), dict))
+    ref_samples = spps[len(spps) // 2] if spps else int(st.get("ref_samples") or 32)
+    over = dict(size=size, ref_samples=ref_samples, ref_denoise=bool(st.get("denoise", False)),
                 gbuffer_samples=int(st.get("eevee_samples") or 1), source=f"dataset {root}")
     return out, over, notes
 

@@ -56,6 +56,11 @@ def test_bake_writes_a_verified_dataset(baked):
     st = m["settings"]
     assert (st["kind"], st["size"], st["ref_samples"], st["denoise"], st["eevee_samples"], st["first_seed"]) == \
         ("rooms", [64, 36], 2, False, 1, 3)  # OIDN off by default
+    assert st["ref_target_db"] == 41.0  # halves doubled up to --ref-samples: here 1 + 1 spp, far under 41 dB
+    for k, v in m["samples"].items():
+        assert v["reference"]["samples"] == 2 and v["reference"]["renders"] == 2, v
+        assert 0 < v["reference"]["agreement_db"] < 41
+        assert f"bake: {k}: the reference reached --ref-samples 2 at an estimated" in stderr
     assert st["diffuse_bounces"] >= 8 and st["cycles"]["clamp_indirect"] == 0.0
     assert st["eevee"]["light_threshold"] == 0.0 and st["eevee"]["world"] == "camera_rays_only"
     assert [(k, v["seed"], v["scene"]) for k, v in m["samples"].items()] == \
@@ -178,7 +183,11 @@ def test_bad_input_is_refused_with_nothing_lost(baked, tmp_path, factory_bpy):
     before = _files(d)
     other = [a if a != "2" or i != len(BAKE) - 1 else "3" for i, a in enumerate(BAKE)]  # --ref-samples 3
     refused(*other, "--out", str(d), says=["ref_samples=2", "not ref_samples=3", "manifest.json"])
-    refused(*BAKE[:-2], "--ref-samples", "2", "--denoise", "--out", str(d), says=["denoise=False", "not denoise=True"])
+    refused(*BAKE[:-2], "--ref-samples", "2", "--denoise", "--ref-target-db", "0", "--out", str(d),
+            says=["denoise=False", "not denoise=True"])
+    refused(*BAKE, "--ref-target-db", "0", "--out", str(d), says=["ref_target_db=41.0", "not ref_target_db=None"])
+    refused(*BAKE, "--denoise", "--ref-target-db", "30", "--out", str(d), says=["--ref-target-db 30 with --denoise"])
+    refused(*BAKE, "--ref-target-db", "-1", "--out", str(d), says=["--ref-target-db", "must be >= 0"])
     assert _files(d) == before
     m = json.loads((d / "manifest.json").read_text())
     (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION - 1)))
@@ -345,6 +354,55 @@ def test_world_pass_holds_the_skys_unoccluded_light(direct_renders):
     assert not any(r["lights_hidden_after"])
 
 
+# ---------------------------------------------------------------- the reference's agreement target
+
+
+@pytest.fixture(scope="module")
+def references(tmp_path_factory):
+    """bake.render_reference on room 3 at 32x18: low and unreachable targets, a fixed count, and two
+    references from disjoint seeds to check the estimated agreement against the measured one."""
+    out = tmp_path_factory.mktemp("ref") / "r.json"
+    code = f"""
+    import json, bpy
+    from ssgi.model import metrics
+    from ssgi.ssgi_addon import bake, passes, room
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    room.build_room(3, sc)
+    passes.set_resolution(sc, 32, 18)
+    res = {{}}
+    res["low"] = bake.render_reference(sc, 1024, 5.0, seed=1)[1]
+    res["fixed"] = bake.render_reference(sc, 64, None, seed=1)[1]
+    a, ia = bake.render_reference(sc, 1024, 99.0, seed=1)
+    b, ib = bake.render_reference(sc, 1024, 99.0, seed=2)
+    res.update(high=ia, high2=ib, measured=metrics.psnr(a, b), std=float(a.std()))
+    json.dump(res, open({str(out)!r}, "w"))
+    """
+    run_py(code)
+    return json.loads(out.read_text())
+
+
+def test_reference_target_doubles_halves_until_they_agree(references):
+    """The raw reference is two halves of different seeds, doubled (128+128, 256+256, 512+512 spp) until
+    psnr(halves) + 3.01 dB reaches the target or --ref-samples is spent; a fixed count is one render."""
+    r = references
+    assert (r["low"]["samples"], r["low"]["renders"]) == (256, 2) and r["low"]["agreement_db"] >= 5.0
+    assert (r["high"]["samples"], r["high"]["renders"]) == (1024, 6) and r["high"]["agreement_db"] < 99.0
+    assert r["fixed"] == {"samples": 64, "agreement_db": None, "renders": 1}
+    # 4x the samples: 6 dB better by Monte Carlo's 1/N variance (give or take the estimate's own noise)
+    assert 4.0 < r["high"]["agreement_db"] - r["low"]["agreement_db"] < 8.0, r
+    assert r["std"] > 0  # a real room, not a black frame
+
+
+def test_reference_estimated_agreement_predicts_the_measured_one(references):
+    """What the manifest records per sample is what the issue measures: two references of the same scene from
+    different seeds agree to the estimated PSNR. A reference of one half only (or an estimate without the
+    3.01 dB of averaging two halves) would miss by 3 dB."""
+    r = references
+    for k in ("high", "high2"):
+        assert abs(r[k]["agreement_db"] - r["measured"]) < 1.5, (r[k], r["measured"])
+
+
 # ---------------------------------------------------------------- the Bake Dataset operator
 
 
@@ -381,6 +439,7 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     out["state_after_step"] = {{k: bake.STATE[k] for k in ("status", "done", "todo", "progress")}}
     rec = ui_recorder.draw(bake_panel.SSGI_PT_bake)
     out["panel_running"] = [e["kw"].get("text", "") for e in rec.log if e["fn"] in ("label", "progress")]
+    out["panel_props"] = rec.props()
     out["ops_running"] = [o for o, _ in rec.operators()]
     assert bpy.ops.ssgi.bake_cancel() == {{"FINISHED"}}
     assert sess.step() is False
@@ -390,6 +449,7 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     # Bake Dataset again (execute, as a script runs it): resumes and finishes
     with bpy.context.temp_override(scene=user):  # no window: say which scene's settings to use
         assert bpy.ops.ssgi.bake_dataset() == {{"FINISHED"}}
+    out["ui_target"] = ds.load_manifest({str(d)!r})["settings"]["ref_target_db"]
     out["after_resume"] = [bake.STATE["status"], ds.verify({str(d)!r}), sorted(ds.load_manifest({str(d)!r})["samples"]),
                            len(bpy.data.scenes), sorted(o.name for o in user.objects) == user_objects,
                            [w.name for w in bpy.data.worlds if w.get("ssgi_room") and w.users == 0]]
@@ -415,6 +475,8 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     assert r["rebuilt_in_place"] == ["SSGI Room 6", 2, True]
     assert r["state_after_step"] == {"status": "running", "done": 1, "todo": 3, "progress": pytest.approx(1 / 3)}
     assert any("1/3 samples" in t for t in r["panel_running"]) and "ssgi.bake_cancel" in r["ops_running"]
+    assert {"bake_ref_samples", "bake_ref_target_db", "bake_denoise"} <= set(r["panel_props"])
+    assert r["ui_target"] == 41.0  # the panel's default target, as the command line's
     status, baked_n, n_scenes, n_during, problems, names = r["after_cancel"]
     assert (status, baked_n, n_scenes, n_during, problems, names) == ("cancelled", 1, 2, 3, [], ["000000"])
     assert any(t.startswith("Cancelled") for t in r["panel_cancelled"])

@@ -1,0 +1,52 @@
+"""Benchmark: the per-sample reference target (issue 3; bake.render_reference), checked against the truth.
+
+For each room, two references made the way the baker makes them (halves of different seeds, doubled until the
+halves' PSNR + 3.01 dB reaches the target, or --ref-samples is spent), from two disjoint sets of seeds. Prints
+each one's samples, estimated agreement and seconds, and the PSNR measured between the two (the seed's
+convention: linear RGB clamped to [0,1], MSE pooled), which the estimate claims to predict.
+
+    .venv/bin/python benchmarks/ref_target.py --rooms 0 1 2 3 13 --target 40
+"""
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import cli  # noqa: E402
+
+cli.load_package()
+import bpy  # noqa: E402
+
+from ssgi.model import metrics  # noqa: E402
+from ssgi.model.cliargs import parse_size  # noqa: E402
+from ssgi.ssgi_addon import bake, passes, room  # noqa: E402
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])
+ap.add_argument("--target", type=float, default=bake.DEFAULT_REF_TARGET_DB)
+ap.add_argument("--ref-samples", type=int, default=bake.DEFAULT_REF_SAMPLES, help="most samples")
+ap.add_argument("--size", type=parse_size, default=(240, 135))
+a = ap.parse_args()
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+rows = []
+for r in a.rooms:
+    room.build_room(r, scene)
+    passes.set_resolution(scene, *a.size)
+    refs, infos, secs = [], [], []
+    for s in (r * 2 + 1000, r * 2 + 1001):  # two disjoint seed sets (render i of seed s uses s * 64 + i)
+        t = time.perf_counter()
+        img, info = bake.render_reference(scene, a.ref_samples, a.target, seed=s)
+        secs.append(round(time.perf_counter() - t, 1))
+        refs.append(img)
+        infos.append(info)
+    row = dict(room=r, spp=[i["samples"] for i in infos], estimated_db=[i["agreement_db"] for i in infos],
+               measured_db=round(metrics.psnr(refs[0], refs[1]), 2), seconds=secs)
+    rows.append(row)
+    print(json.dumps(row), flush=True)
+print(f"target {a.target:g} dB: measured {min(x['measured_db'] for x in rows):.2f}-"
+      f"{max(x['measured_db'] for x in rows):.2f} dB; estimate - measured "
+      f"{min(min(x['estimated_db']) - x['measured_db'] for x in rows):+.2f} to "
+      f"{max(max(x['estimated_db']) - x['measured_db'] for x in rows):+.2f} dB", file=sys.stderr)
