@@ -7,8 +7,13 @@ A dataset folder holds ``manifest.json`` and one EXR per sample named by its ind
 manifest.json::
 
     {"format_version": 1, "blender_version": "5.0.1", "channel_spec": [...], "normalisation": {...},
-     "settings": {"kind": "rooms"|"scenes", "size": [240, 135], "ref_samples": 32, "denoise": true, ...},
-     "samples": {"000042": {"seed": 42, "scene": "room-42", "camera": ..., "frame": ..., "timings": {...}}}}
+     "settings": {"kind": "rooms"|"scenes", "size": [240, 135], "ref_samples": 4096, "ref_target_db": 41.0,
+                  "denoise": false, ...},
+     "samples": {"000042": {"seed": 42, "scene": "room-42", "camera": ..., "frame": ..., "timings": {...},
+                            "reference": {"samples": 1024, "agreement_db": 42.4, "renders": 6}}}}
+
+``ref_target_db`` null: every reference took exactly ``ref_samples`` (``agreement_db`` null). Older bakes have
+neither key.
 """
 from __future__ import annotations
 

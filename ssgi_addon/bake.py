@@ -77,7 +77,7 @@ def render_reference(scene, max_samples: int, target_db: float | None, seed: int
     add = half
     while True:
         for h in (0, 1):
-            img = passes.render_cycles(scene, add, seed=int(seed) * 64 + renders, groups=("ref",))["ref"]
+            img = passes.render_cycles(scene, add, seed=(int(seed) * 64 + renders) % 2 ** 31, groups=("ref",))["ref"]
             img = img.astype(np.float64) * add
             sums[h] = img if sums[h] is None else sums[h] + img
             renders += 1
