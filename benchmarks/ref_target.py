@@ -36,7 +36,7 @@ for r in a.rooms:
     room.build_room(r, scene)
     passes.set_resolution(scene, *a.size)
     refs, infos, secs = [], [], []
-    for s in (r * 2 + 1000, r * 2 + 1001):  # two disjoint seed sets (render i of seed s uses s * 64 + i)
+    for s in (r * 2 + 1000, r * 2 + 1001):  # disjoint seed sets (bake.REF_SEED_STRIDE)
         t = time.perf_counter()
         img, info = bake.render_reference(scene, a.ref_samples, a.target, seed=s)
         secs.append(round(time.perf_counter() - t, 1))

@@ -41,6 +41,9 @@ DEFAULT_REF_SAMPLES = 4096
 DEFAULT_REF_TARGET_DB = 41.0
 REF_START_SAMPLES = 256  # the first two halves: 128 spp each
 HALVES_GAIN_DB = 10.0 * math.log10(2.0)  # 3.01 dB: a reference of both halves against another such reference
+# Render i of a reference of seed s uses Cycles seed s * REF_SEED_STRIDE + i, so that references of different
+# seeds never share a render's seed; a reference therefore makes fewer than REF_SEED_STRIDE renders.
+REF_SEED_STRIDE = 64
 DEFAULT_DENOISE = False
 DENOISED_REF_SAMPLES = 64
 DEFAULT_EEVEE_SAMPLES = 1
@@ -72,12 +75,12 @@ def render_reference(scene, max_samples: int, target_db: float | None, seed: int
     if target_db is None or max_samples < 2:
         img = passes.render_cycles(scene, max_samples, seed=seed, denoise=denoise, groups=("ref",))["ref"]
         return img, {"samples": int(max_samples), "agreement_db": None, "renders": 1}
-    half = max(1, min(REF_START_SAMPLES, max_samples) // 2)
     sums, n, renders = [None, None], 0, 0  # per half: sum of spp * image; spp per half so far
-    add = half
+    add = max(1, min(REF_START_SAMPLES, max_samples) // 2)
     while True:
         for h in (0, 1):
-            img = passes.render_cycles(scene, add, seed=(int(seed) * 64 + renders) % 2 ** 31, groups=("ref",))["ref"]
+            cycles_seed = (int(seed) * REF_SEED_STRIDE + renders) % 2 ** 31
+            img = passes.render_cycles(scene, add, seed=cycles_seed, groups=("ref",))["ref"]
             img = img.astype(np.float64) * add
             sums[h] = img if sums[h] is None else sums[h] + img
             renders += 1
@@ -85,7 +88,7 @@ def render_reference(scene, max_samples: int, target_db: float | None, seed: int
         a, b = sums[0] / n, sums[1] / n
         est = metrics.psnr(a, b) + HALVES_GAIN_DB
         add = min(n, max_samples // 2 - n)  # double each half, never past max_samples
-        if est >= target_db or add <= 0 or renders >= 62:
+        if est >= target_db or add <= 0 or renders + 2 >= REF_SEED_STRIDE:
             break
     ref = ((a + b) / 2).astype(np.float32)
     return ref, {"samples": 2 * n, "agreement_db": round(float(min(est, 999.0)), 2), "renders": renders}
