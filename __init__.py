@@ -1,37 +1,23 @@
 """SSGI Blender extension: learned global illumination for EEVEE renders.
 
-register()/unregister() only gather the classes of ssgi_addon/, ops/ and panels/. The learning half lives
-in model/ and never imports bpy.
+register()/unregister() gather the classes of the UI modules listed in ``_modules`` (explicit imports, in
+registration order: property groups before what uses them). The learning half lives in model/ and never
+imports bpy; the modules are imported inside ``_modules`` so that loading the package (cli.py, tests, a
+training child process) does not import bpy.
 """
 from __future__ import annotations
 
-import importlib
 
-# Modules with a CLASSES tuple, in registration order (property groups before what uses them).
-_CLASS_MODULES = (
-    "ssgi_addon.props",
-    "ssgi_addon.preferences",
-    "ops.deps_ops",
-    "panels.main_panel",
-    "ops.bake_ops",
-    "panels.bake_panel",
-    "ops.node_ops",
-    "panels.node_panel",
-    "ssgi_addon.training",
-    "ops.train_ops",
-    "panels.train_panel",
-    "ops.report_ops",
-    "panels.report_panel",
-    "ops.fit_ops",
-    "panels.fit_panel",
-)
+def _modules() -> tuple:
+    from .ops import bake_ops, deps_ops, fit_ops, node_ops, report_ops, train_ops
+    from .panels import bake_panel, fit_panel, main_panel, node_panel, report_panel, train_panel
+    from .ssgi_addon import preferences, props
+    from .ssgi_addon.pipeline import training
+    return (props, preferences, deps_ops, main_panel, bake_ops, bake_panel, node_ops, node_panel, training,
+            train_ops, train_panel, report_ops, report_panel, fit_ops, fit_panel)
 
 
-def _modules():
-    return [importlib.import_module(f"{__name__}.{m}") for m in _CLASS_MODULES]
-
-
-def _classes():
+def _classes() -> list:
     out = []
     for m in _modules():
         out.extend(getattr(m, "CLASSES", ()))
@@ -41,7 +27,7 @@ def _classes():
 def register():
     import bpy
 
-    from .ssgi_addon import deps
+    from .ssgi_addon.runtime import deps
     deps.add_to_path()
     for cls in _classes():
         bpy.utils.register_class(cls)
@@ -53,7 +39,7 @@ def register():
 def unregister():
     import bpy
 
-    from .ssgi_addon import jobs
+    from .ssgi_addon.runtime import jobs
     jobs.shutdown()
     for m in reversed(_modules()):
         if hasattr(m, "unregister_extra"):

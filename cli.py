@@ -7,10 +7,8 @@
 Progress goes to stderr; ``--json`` prints a machine-readable summary on stdout. A user error exits with
 status 2 and a message that names the argument, file or value and what is wrong.
 
-Each subcommand lives beside the code it drives: a module listed in ``COMMAND_MODULES`` defines
-``register_cli(subparsers)`` which adds its subparser(s) and sets ``func=run(args) -> dict``. Those modules
-import torch and heavy things lazily, inside ``run``, so that ``--help`` and bpy-only commands stay fast and
-work without torch.
+The subcommands are the modules that ``ssgi_addon/commands/__init__.py:modules()`` lists; each defines
+``register_cli(subparsers)``, which adds its subparser(s) and sets ``func=run(args) -> dict``.
 """
 from __future__ import annotations
 
@@ -26,17 +24,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent
 PACKAGE = "ssgi"
 
-# package-relative modules that define register_cli(subparsers); order is the order in --help
-COMMAND_MODULES = [
-    "ssgi_addon.info_cli",
-    "ssgi_addon.room",
-    "ssgi_addon.bake",
-    "ssgi_addon.demo",
-    "model.train_cli",
-    "ssgi_addon.render_cli",
-    "ssgi_addon.fit_cli",
-    "ssgi_addon.report_cli",
-]
 
 
 def load_package(name: str = PACKAGE):
@@ -70,8 +57,8 @@ def _add_extension_deps_to_path() -> str | None:
     if not in_blender_binary():
         return None
     try:
-        pkg = load_package()
-        deps = importlib.import_module(f"{pkg.__name__}.ssgi_addon.deps")
+        load_package()
+        from ssgi.ssgi_addon.runtime import deps
         found = deps.add_to_path()
         return str(found) if found else None
     except Exception as e:  # never fatal: commands that need torch say so themselves
@@ -89,15 +76,15 @@ def _argv() -> list[str]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    pkg = load_package()
     parser = argparse.ArgumentParser(
         prog="cli.py",
         description="SSGI: learn path-traced global illumination from EEVEE G-buffers.",
     )
     sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND")
     sub.required = True
-    for modname in COMMAND_MODULES:
-        mod = importlib.import_module(f"{pkg.__name__}.{modname}")
+    load_package()
+    from ssgi.ssgi_addon import commands  # the package load_package() put in sys.modules
+    for mod in commands.modules():
         mod.register_cli(sub)
     for p in sub.choices.values():
         if not any(a.dest == "json" for a in p._actions):
@@ -114,8 +101,8 @@ def _fail(args, code: int, msg: str) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     _add_extension_deps_to_path()
-    pkg = load_package()
-    errors = importlib.import_module(f"{pkg.__name__}.model.errors")
+    load_package()
+    from ssgi.model import errors
     parser = build_parser()
     args = parser.parse_args(_argv() if argv is None else argv)
     try:

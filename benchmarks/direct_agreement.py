@@ -18,7 +18,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model.cliargs import parse_size  # noqa: E402
-from ssgi.ssgi_addon import passes, room  # noqa: E402
+from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--rooms", type=int, nargs="+", default=[51, 0, 3, 2, 4, 6, 7, 8, 11, 13, 15, 17, 21])

@@ -17,7 +17,7 @@ cli.load_package()
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ssgi.ssgi_addon import passes, room  # noqa: E402
+from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--light", choices=["POINT", "SPOT"], default="POINT")

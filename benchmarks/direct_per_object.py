@@ -16,7 +16,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
-from ssgi.ssgi_addon import passes, room  # noqa: E402
+from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--room", type=int, default=13)

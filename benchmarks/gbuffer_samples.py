@@ -29,9 +29,12 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model import channels as ch  # noqa: E402
-from ssgi.model import checkpoint, exrio, metrics  # noqa: E402
-from ssgi.model.predict import srgb8, write_png  # noqa: E402
-from ssgi.ssgi_addon import passes, report_run, room  # noqa: E402
+from ssgi.model.learn import checkpoint
+from ssgi.model.dataset import exrio
+from ssgi.model import metrics  # noqa: E402
+from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
+from ssgi.ssgi_addon.blender import passes, room
+from ssgi.ssgi_addon.pipeline import report as report_run  # noqa: E402
 
 ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 ap.add_argument("--data", default="/work/data/rooms3", help="dataset folder (its stored references are the target)")

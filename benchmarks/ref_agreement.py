@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
-from ssgi.ssgi_addon import passes, room  # noqa: E402
+from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])

@@ -21,7 +21,8 @@ import bpy  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
-from ssgi.ssgi_addon import bake, passes, room  # noqa: E402
+from ssgi.ssgi_addon.pipeline import bake
+from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])

@@ -15,8 +15,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import cli  # noqa: E402
 
 cli.load_package()
-from ssgi.model import checkpoint, exrio, metrics  # noqa: E402
-from ssgi.model.predict import srgb8, write_png  # noqa: E402
+from ssgi.model.learn import checkpoint
+from ssgi.model.dataset import exrio
+from ssgi.model import metrics  # noqa: E402
+from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
 
 
 def main(argv=None):

@@ -27,8 +27,9 @@ pkg = cli.load_package()
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ssgi.model import channels as ch, exrio  # noqa: E402
-from ssgi.ssgi_addon import passes, room  # noqa: E402
+from ssgi.model import channels as ch
+from ssgi.model.dataset import exrio  # noqa: E402
+from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("out")

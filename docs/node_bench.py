@@ -43,7 +43,7 @@ def main() -> int:
     import cli
     pkg = cli.load_package()
     from importlib import import_module
-    with import_module(f"{pkg.__name__}.ssgi_addon.render_cli").stdout_to_stderr():  # stdout: JSON only
+    with import_module(f"{pkg.__name__}.ssgi_addon.commands.render").stdout_to_stderr():  # stdout: JSON only
         summary = bench(a, pkg)
     print(json.dumps(summary, indent=1, default=str))
     return 0
@@ -53,9 +53,9 @@ def bench(a, pkg) -> dict:
     import bpy
     import numpy as np
     from importlib import import_module
-    room = import_module(f"{pkg.__name__}.ssgi_addon.room")
-    render = import_module(f"{pkg.__name__}.ssgi_addon.render")
-    passes = import_module(f"{pkg.__name__}.ssgi_addon.passes")
+    room = import_module(f"{pkg.__name__}.ssgi_addon.blender.room")
+    render = import_module(f"{pkg.__name__}.ssgi_addon.pipeline.render")
+    passes = import_module(f"{pkg.__name__}.ssgi_addon.blender.passes")
     node_ops = import_module(f"{pkg.__name__}.ops.node_ops")
 
     out = Path(a.out)

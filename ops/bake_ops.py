@@ -11,7 +11,8 @@ from __future__ import annotations
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon import bake, room
+from ..ssgi_addon.pipeline import bake
+from ..ssgi_addon.blender import room
 from . import TimerSteps, cancel_state
 
 

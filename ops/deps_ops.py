@@ -4,7 +4,7 @@ from __future__ import annotations
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon import deps, jobs
+from ..ssgi_addon.runtime import deps, jobs
 from ..ssgi_addon.preferences import prefs
 
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon import deps, jobs
-from ..ssgi_addon import fit as sfit
+from ..ssgi_addon.runtime import deps, jobs
+from ..ssgi_addon.pipeline import fit as sfit
 
 
 def fit_out(scene) -> Path:

@@ -10,8 +10,8 @@ import bpy
 
 from ..model import channels as ch
 from ..model.errors import UserError
-from ..ssgi_addon import node as ssgi_node
-from ..ssgi_addon import render as ssgi_render
+from ..ssgi_addon.blender import node as ssgi_node
+from ..ssgi_addon.pipeline import render as ssgi_render
 from . import TimerSteps, cancel_state
 
 

@@ -8,7 +8,9 @@ from pathlib import Path
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon import jobs, node, report_cli
+from ..ssgi_addon.runtime import jobs
+from ..ssgi_addon.blender import node
+from ..ssgi_addon.commands import report as report_cli
 
 
 def report_models(scene) -> list[Path]:
@@ -29,7 +31,7 @@ def report_models(scene) -> list[Path]:
 
 def check(scene) -> tuple[Path, list[Path], Path]:
     """(dataset, models, out) of the scene's settings, or a UserError naming what is wrong."""
-    from ..model.data import read_manifest
+    from ..model.learn.data import read_manifest
 
     s = scene.ssgi
     data = Path(bpy.path.abspath(s.dataset_dir).rstrip("/\\") or ".")

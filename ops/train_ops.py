@@ -5,7 +5,8 @@ from __future__ import annotations
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon import deps, jobs, training
+from ..ssgi_addon.runtime import deps, jobs
+from ..ssgi_addon.pipeline import training
 
 
 class SSGI_OT_train(bpy.types.Operator):
@@ -26,7 +27,7 @@ class SSGI_OT_train(bpy.types.Operator):
         try:
             cfg = training.config_from_scene(context.scene)
             cfg.check()
-            from ..model.data import read_manifest
+            from ..model.learn.data import read_manifest
             read_manifest(cfg.data)  # a missing or foreign dataset is reported now, not from the thread
             training.start(context.scene)
         except (UserError, RuntimeError) as e:

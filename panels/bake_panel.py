@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon import bake
+from ..ssgi_addon.pipeline import bake
 from . import SSGISubPanel, draw_error, draw_job, job_running
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon import fit as sfit
-from ..ssgi_addon import jobs
+from ..ssgi_addon.pipeline import fit as sfit
+from ..ssgi_addon.runtime import jobs
 from . import SSGISubPanel, draw_error, draw_job, job_running
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon import deps
+from ..ssgi_addon.runtime import deps
 from . import RenderPropertiesPanel
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon import node as ssgi_node
-from ..ssgi_addon import render as ssgi_render
+from ..ssgi_addon.blender import node as ssgi_node
+from ..ssgi_addon.pipeline import render as ssgi_render
 from . import RenderPropertiesPanel
 
 

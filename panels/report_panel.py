@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon import jobs, report_cli
+from ..ssgi_addon.runtime import jobs
+from ..ssgi_addon.commands import report as report_cli
 from . import SSGISubPanel, draw_error, draw_job, job_running
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import deps, jobs
+from .runtime import deps, jobs
 
 
 def prefs(context=None):

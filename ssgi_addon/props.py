@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..model import variants as _variants
-from . import bake as _bake
+from ..model.learn import variants as _variants
+from .pipeline import bake as _bake
 
 
 class SSGI_SceneSettings(bpy.types.PropertyGroup):

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from ssgi.model import channels as ch
-from ssgi.model import dataset as ds
-from ssgi.model import exrio
+from ssgi.model.dataset import folder as ds
+from ssgi.model.dataset import exrio
 
 from .conftest import run_cli, run_py
 
@@ -126,7 +126,7 @@ def test_shards_then_merge_equal_the_unsharded_bake(baked, tmp_path):
     d = tmp_path / "farm"
     code = f"""
     from pathlib import Path
-    from ssgi.ssgi_addon import bake
+    from ssgi.ssgi_addon.pipeline import bake
     d = Path({str(d)!r})
     kw = dict(count=2, seed=3, size=(64, 36), ref_samples=2)
     print(bake.bake(d, shard=(0, 2), **kw))
@@ -211,7 +211,7 @@ def test_scenes_bake_each_camera_at_each_frame(tmp_path):
     blend, d = tmp_path / "shot.blend", tmp_path / "data"
     code = f"""
     import bpy
-    from ssgi.ssgi_addon import room
+    from ssgi.ssgi_addon.blender import room
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = room.build_room(5, bpy.context.scene)
     cam = sc.camera
@@ -267,7 +267,7 @@ def direct_renders(tmp_path_factory):
     code = f"""
     import math, numpy as np, bpy
     from mathutils import Vector
-    from ssgi.ssgi_addon import passes, room
+    from ssgi.ssgi_addon.blender import passes, room
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     res = {{}}
@@ -365,7 +365,8 @@ def references(tmp_path_factory):
     code = f"""
     import json, bpy
     from ssgi.model import metrics
-    from ssgi.ssgi_addon import bake, passes, room
+    from ssgi.ssgi_addon.pipeline import bake
+    from ssgi.ssgi_addon.blender import passes, room
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     room.build_room(3, sc)
@@ -411,8 +412,9 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     code = f"""
     import json, bpy
     import ssgi
-    from ssgi.model import dataset as ds
-    from ssgi.ssgi_addon import bake, room
+    from ssgi.model.dataset import folder as ds
+    from ssgi.ssgi_addon.pipeline import bake
+    from ssgi.ssgi_addon.blender import room
     from tests import ui_recorder
     from ssgi.panels import bake_panel
     bpy.ops.wm.read_factory_settings(use_empty=True)

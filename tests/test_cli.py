@@ -80,7 +80,7 @@ import json, sys
 from pathlib import Path
 import bpy
 from ssgi.model.errors import UserError
-from ssgi.ssgi_addon import blendfile
+from ssgi.ssgi_addon.blender import blendfile
 d = Path(sys.argv[1])
 (d / "junk.blend").write_bytes(b"BLENDER-v500 but not really" * 10)
 (d / "folder.blend").mkdir()

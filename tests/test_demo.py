@@ -10,7 +10,7 @@ from .conftest import ROOT, run_cli, run_py
 
 # The demo is built from other areas' modules; where one is not in this checkout yet, the demo must say so
 # and render nothing, and these tests check exactly that instead.
-NOT_YET = [m for m in ("ssgi_addon/room.py", "ssgi_addon/passes.py") if not (ROOT / m).is_file()]
+NOT_YET = [m for m in ("ssgi_addon/blender/room.py", "ssgi_addon/blender/passes.py") if not (ROOT / m).is_file()]
 
 
 def _check_not_yet(d: dict) -> None:
@@ -31,7 +31,7 @@ def untrained_model(tmp_path_factory):
     """A real SSGI checkpoint with untrained weights: proves the SSGI path runs, says nothing of quality."""
     path = tmp_path_factory.mktemp("model") / "untrained.pt"
     run_py(f'''
-from ssgi.model import checkpoint, network
+from ssgi.model.learn import checkpoint, network
 import torch
 torch.manual_seed(0)
 net = network.build(network.arch_for("fssgi"))

@@ -15,8 +15,8 @@ from .conftest import run_cli, run_py
 
 # modules that randomizing and baking use; they must import without torch (those not written yet are skipped
 # inside the subprocess and listed in its report)
-BAKE_SIDE_MODULES = ("model.errors", "model.channels", "model.exrio", "model.cliargs", "ssgi_addon.room",
-                     "ssgi_addon.passes", "ssgi_addon.bake", "ssgi_addon.randomize", "ssgi_addon.info_cli")
+BAKE_SIDE_MODULES = ("model.errors", "model.channels", "model.dataset.exrio", "model.cliargs", "ssgi_addon.blender.room",
+                     "ssgi_addon.blender.passes", "ssgi_addon.pipeline.bake", "ssgi_addon.randomize", "ssgi_addon.commands.info")
 
 
 def make_wheel(folder: Path, name: str = "ssgi_probe_pkg", version: str = "1.0") -> Path:
@@ -42,7 +42,7 @@ def make_wheel(folder: Path, name: str = "ssgi_probe_pkg", version: str = "1.0")
 def test_torch_detected_when_present():
     import torch
 
-    from ssgi.ssgi_addon import deps
+    from ssgi.ssgi_addon.runtime import deps
     ok, info = deps.torch_status(refresh=True)
     assert ok and info == str(torch.__version__)
     assert deps.torch_available()
@@ -64,7 +64,7 @@ rep = {}
 bpy.ops.wm.read_factory_settings(use_empty=True)
 rep["install"] = sorted(bpy.ops.extensions.package_install_files(filepath=sys.argv[1], repo="user_default", enable_on_install=True))
 mod = sys.modules[PKG]
-deps = importlib.import_module(PKG + ".ssgi_addon.deps")
+deps = importlib.import_module(PKG + ".ssgi_addon.runtime.deps")
 rep["torch_status"] = list(deps.torch_status())
 rep["imported"], rep["absent"] = [], []
 for name in json.loads(sys.argv[2]):
@@ -100,7 +100,7 @@ def test_without_torch_extension_enables_panels_draw_and_bake_side_imports(built
     assert r["install"] == ["FINISHED"]
     ok, why = r["torch_status"]
     assert ok is False and "ImportError" in why
-    assert {"model.channels", "model.exrio", "model.cliargs"} <= set(r["imported"]), r
+    assert {"model.channels", "model.dataset.exrio", "model.cliargs"} <= set(r["imported"]), r
     assert r["torch_in_modules"] is False  # nothing imported torch behind the blocker's back either
     main = r["panels"]["SSGI_PT_main"]
     assert any("PyTorch missing" in t for t in main["labels"]), main
@@ -122,8 +122,8 @@ PKG = "bl_ext.user_default.ssgi"
 rep = {}
 bpy.ops.wm.read_factory_settings(use_empty=True)
 bpy.ops.extensions.package_install_files(filepath=sys.argv[1], repo="user_default", enable_on_install=True)
-deps = importlib.import_module(PKG + ".ssgi_addon.deps")
-jobs = importlib.import_module(PKG + ".ssgi_addon.jobs")
+deps = importlib.import_module(PKG + ".ssgi_addon.runtime.deps")
+jobs = importlib.import_module(PKG + ".ssgi_addon.runtime.jobs")
 prefs = bpy.context.preferences.addons[PKG].preferences
 
 # --- paths ---
@@ -134,7 +134,7 @@ rep["user_resources"] = bpy.utils.resource_path("USER")
 rep["exists_before"] = d.exists()
 d = deps.deps_dir(create=True)
 rep["exists_after_create"] = d.is_dir()
-import ssgi.ssgi_addon.deps as checkout_deps  # the checkout, as cli.py loads it in a Blender binary
+import ssgi.ssgi_addon.runtime.deps as checkout_deps  # the checkout, as cli.py loads it in a Blender binary
 rep["checkout_deps_dir"] = str(checkout_deps.deps_dir())
 (d / "ssgi_probe_path.py").write_text("WHERE = 'extension site-packages'\n")
 rep["add_to_path"] = str(deps.add_to_path())

@@ -53,8 +53,8 @@ def test_build_zip_contents(built_zip):
                      "requirements.txt", "requirements.lock", "pytest.ini", ".gitignore"):
         assert left_out not in tops, left_out
     assert not [n for n in names if "__pycache__" in n or n.endswith((".pyc", ".tmp"))]
-    for needed in ("blender_manifest.toml", "__init__.py", "cli.py", "ssgi_addon/__init__.py", "ssgi_addon/deps.py",
-                   "ops/deps_ops.py", "panels/main_panel.py", "model/channels.py", "model/exrio.py"):
+    for needed in ("blender_manifest.toml", "__init__.py", "cli.py", "ssgi_addon/__init__.py", "ssgi_addon/runtime/deps.py",
+                   "ops/deps_ops.py", "panels/main_panel.py", "model/channels.py", "model/dataset/exrio.py"):
         assert needed in names, needed
     import tomllib
     for w in tomllib.loads((ROOT / "blender_manifest.toml").read_text())["wheels"]:
@@ -103,8 +103,8 @@ def defined_classes():
     out, failed = {}, {}
     for sub in ("ssgi_addon", "ops", "panels"):
         p = importlib.import_module(f"{PKG}.{sub}")
-        for info in pkgutil.iter_modules(p.__path__):
-            name = f"{PKG}.{sub}.{info.name}"
+        for info in pkgutil.walk_packages(p.__path__, prefix=f"{PKG}.{sub}."):
+            name = info.name
             try:
                 m = importlib.import_module(name)
             except Exception as e:
@@ -143,7 +143,7 @@ rep["prefs_type"] = type(prefs).__name__
 rep["prefs_torch_threads"] = prefs.torch_threads
 
 old_classes = expected()
-jobs = importlib.import_module(PKG + ".ssgi_addon.jobs")
+jobs = importlib.import_module(PKG + ".ssgi_addon.runtime.jobs")
 jobs.ensure_timer()  # as the installer operator does; disabling must take it away
 rep["timer_before"] = bpy.app.timers.is_registered(jobs._timer)
 addon_utils.disable(PKG, default_set=True, handle_error=lambda e: errors.append(f"disable: {e!r}"))
@@ -156,7 +156,7 @@ rep["errors"] = errors
 
 import OpenEXR, numpy as np
 rep["openexr_file"] = OpenEXR.__file__
-from bl_ext.user_default.ssgi.model import exrio
+from bl_ext.user_default.ssgi.model.dataset import exrio
 path = bpy.app.tempdir + "t.exr"
 exrio.write_sample(path, {"depth": np.arange(6, dtype=np.float32).reshape(2, 3, 1)}, half=False)
 rep["exr_roundtrip"] = exrio.read_sample(path, ("depth",))["depth"][..., 0].tolist()

@@ -11,9 +11,11 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, fit, network, normalize, synthetic
+from ssgi.model.learn import checkpoint, fit, network
+from ssgi.model import normalize
+from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
-from ssgi.model.train import TrainConfig, evaluate
+from ssgi.model.learn.train import TrainConfig, evaluate
 
 from .conftest import clean, run_cli, run_py
 
@@ -116,7 +118,8 @@ def test_fit_trainer_uses_the_given_views_and_starting_weights(views, generic, t
 def test_views_build_inputs_as_the_render_path_does(views, tmp_path):
     """A spec that keeps depth but drops normals: the input is what the node's render path computes (the
     spec's groups plus the normals, which mark the background for the depth normalisation)."""
-    from ssgi.model import exrio, normalize
+    from ssgi.model.dataset import exrio
+    from ssgi.model import normalize
     spec = ("albedo", "depth", "direct")
     g = exrio.read_sample(views / "000000.exr")
     g["normal"][:4] = 0  # nothing hit in the top rows: background for depth only when normals are used
@@ -242,7 +245,7 @@ def test_fit_cancel_writes_nothing(views, tmp_path):
 
 
 def test_view_counts_and_roles():
-    from ssgi.ssgi_addon import fit as sfit
+    from ssgi.ssgi_addon.pipeline import fit as sfit
     assert sfit.view_counts(24, 1, 1) == (1, 23)
     nf, nj = sfit.view_counts(24, 48, 1)
     assert nf == 3 and (1 + nj) * nf >= 24
@@ -282,7 +285,7 @@ bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 
 
 def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_fit):
-    from ssgi.model import data
+    from ssgi.model.learn import data
     s = scene_fit["summary"]
     assert s["ok"] and s["status"] == "done"
     work = scene_fit["dir"] / "room_fit.fit"
@@ -329,7 +332,7 @@ for o in sc.objects:
                            role=o["ssgi_fit_role"])
 json.dump(dict(poses=poses, views=res, lens=cam.data.name), open({str(out)!r}, "w"))
 ''', timeout=120)
-    from ssgi.ssgi_addon import fit as sfit
+    from ssgi.ssgi_addon.pipeline import fit as sfit
     info = json.loads(out.read_text())
     plan = json.loads((work / "views_plan.json").read_text())
     assert len(info["views"]) == 3
@@ -348,7 +351,7 @@ def test_jittered_cameras_follow_their_animated_scene_camera(tmp_path):
     out = tmp_path / "follow.json"
     run_py(f'''
 import bpy, json, math
-from ssgi.ssgi_addon import fit as sfit
+from ssgi.ssgi_addon.pipeline import fit as sfit
 bpy.ops.wm.read_factory_settings(use_empty=True)
 sc = bpy.context.scene
 bpy.ops.mesh.primitive_plane_add(size=20, location=(0, 0, 0))
@@ -395,7 +398,7 @@ json.dump(res, open({str(out)!r}, "w"))
 
 
 def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(scene_fit):
-    from ssgi.model import exrio
+    from ssgi.model.dataset import exrio
 
     from .test_node import expected_image, read_rgba
     ck = checkpoint.load(scene_fit["model"])
@@ -430,7 +433,7 @@ def test_fit_operator_runs_in_the_background_with_progress_and_cancel(scene_fit,
     res = tmp_path / "res.json"
     run_py(f'''
 import bpy, json, os, time, ssgi
-from ssgi.ssgi_addon import jobs
+from ssgi.ssgi_addon.runtime import jobs
 ssgi.register()
 bpy.ops.wm.open_mainfile(filepath={str(scene_fit["blend"])!r})
 sc = bpy.context.scene
@@ -451,7 +454,7 @@ r["running_ops"] = [o[0] for o in ui_recorder.draw(SSGI_PT_fit).operators()]
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
 r["cancel_status"] = job.state["status"]
-from ssgi.ssgi_addon.fit import group_members
+from ssgi.ssgi_addon.pipeline.fit import group_members
 r["group_alive"] = group_members(job.proc.pid)
 r["model_after_cancel"] = os.path.exists({str(out)!r})
 assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}

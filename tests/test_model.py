@@ -9,8 +9,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, metrics, network, normalize
-from ssgi.model.bench import synthetic_groups
+from ssgi.model.learn import checkpoint, network
+from ssgi.model import metrics, normalize
+from ssgi.model.infer.bench import synthetic_groups
 from ssgi.model.errors import UserError
 
 FAST = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -304,7 +305,7 @@ def _strip_world(folder):
     """Make ``folder`` look like a dataset baked before the ``world`` group existed."""
     import json
 
-    from ssgi.model import exrio
+    from ssgi.model.dataset import exrio
     for p in sorted(folder.glob("[0-9]*.exr")):
         planes, _ = exrio.read_exr(p)
         exrio.write_exr(p, {k: v for k, v in planes.items() if not k.startswith("world.")}, half=False)
@@ -314,7 +315,8 @@ def _strip_world(folder):
 
 
 def test_datasets_from_before_the_world_group_still_read_verify_and_feed_training(tmp_path):
-    from ssgi.model import data, dataset, exrio, synthetic
+    from ssgi.model.learn import data
+    from ssgi.model.dataset import folder as dataset, exrio, synthetic
     new = synthetic.make_dataset(tmp_path / "new", scenes=2, per_scene=1, w=16, h=8)
     assert "world" in dataset.stored_groups(dataset.load_manifest(new))
     assert dataset.verify(new) == []

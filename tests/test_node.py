@@ -92,7 +92,7 @@ def make_checkpoint(path: Path, variant: str = "unet_s", inputs=None) -> Path:
     import torch
 
     from ssgi.model import channels as ch
-    from ssgi.model import checkpoint, network
+    from ssgi.model.learn import checkpoint, network
     torch.manual_seed(0)
     net = network.build(network.arch_for(variant, inputs=inputs or ch.DEFAULT_INPUTS))
     ck = checkpoint.make(net, "network", command="tests/test_node.py")
@@ -103,7 +103,7 @@ def make_checkpoint(path: Path, variant: str = "unet_s", inputs=None) -> Path:
 
 def expected_image(model: Path, groups: dict, clip_end: float) -> np.ndarray:
     """What the node must show, computed here: predict() on the passes, EEVEE's colour where no geometry."""
-    from ssgi.model import checkpoint
+    from ssgi.model.learn import checkpoint
     pred = checkpoint.load_predictor(model).predict(groups)
     world = groups["depth"][..., 0] >= 0.999 * clip_end
     return np.where(world[..., None], groups["eevee"][..., :3], pred), world
@@ -132,7 +132,7 @@ def rendered(room):
     res = d / "rendered.json"
     p = run_py(SCENE + SNAPSHOT + f'''
 import json, numpy as np, ssgi
-from ssgi.ssgi_addon import render as R
+from ssgi.ssgi_addon.pipeline import render as R
 ssgi.register()
 bpy.ops.wm.open_mainfile(filepath={str(room["blend"])!r})
 sc = bpy.context.scene
@@ -298,7 +298,7 @@ def test_cli_renders_three_frames_each_its_own_prediction(room, tmp_path):
     files = [tmp_path / f"anim_{f:04d}.exr" for f in (1, 2, 3)]
     assert summary["files"] == [str(f) for f in files]
     assert sorted(x.name for x in tmp_path.iterdir() if x.is_file()) == [f.name for f in files]
-    from ssgi.model import exrio
+    from ssgi.model.dataset import exrio
     outs = []
     for f, path in zip((1, 2, 3), files):
         g = exrio.read_sample(tmp_path / "passes" / f"{f:06d}.exr", groups=("albedo", "normal", "depth", "direct", "eevee"))
@@ -483,7 +483,7 @@ import json, sys
 from pathlib import Path
 import bpy
 import ssgi
-from ssgi.ssgi_addon import node
+from ssgi.ssgi_addon.blender import node
 d = Path(sys.argv[1])
 bpy.ops.wm.read_factory_settings(use_empty=True)
 ssgi.register()
@@ -508,7 +508,7 @@ print("JSON" + json.dumps(out))
 def test_resolve_model_uses_the_scene_model_set_in_the_ui(tmp_path):
     """scene.ssgi.model_path, set with the add-on registered, is the model when no node names one; it still is
     in a reopened file without the add-on, and a plain ID property scene["ssgi"] works too."""
-    from ssgi.ssgi_addon.node import DEFAULT_MODEL
+    from ssgi.ssgi_addon.blender.node import DEFAULT_MODEL
     r = json.loads(run_py(_SCENE_MODEL, str(tmp_path), timeout=300).stdout.split("JSON", 1)[1])
     assert r["default"] == str(DEFAULT_MODEL)
     assert r["registered"] == str(tmp_path / "scene_model.pt")

@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from ssgi.model import checkpoint, metrics, network
-from ssgi.model import report as rep
+from ssgi.model.learn import checkpoint, network
+from ssgi.model import metrics
+from ssgi.model.evaluate import report as rep
 
 from .conftest import run_cli, run_py
 
@@ -116,7 +117,7 @@ def test_pareto_front_and_closest_rung():
 
 _ROOMS = r'''
 import sys, bpy
-from ssgi.ssgi_addon import room
+from ssgi.ssgi_addon.blender import room
 for seed, path in ((3, sys.argv[1]), (4, sys.argv[2])):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     room.build_room(seed, bpy.context.scene)
@@ -214,8 +215,8 @@ def test_report_md_has_the_table_verdicts_and_settings(e2e):
 
 def test_dataset_split_follows_the_models_checkpoint(e2e):
     """The default evaluation scenes are the validation scenes a model records for this very dataset."""
-    from ssgi.model import data
-    from ssgi.ssgi_addon import report_run as rr
+    from ssgi.model.learn import data
+    from ssgi.ssgi_addon.pipeline import report as rr
     d = e2e["out"] / "data"
     sha = data.manifest_sha256(d)
     ck = {"dataset": {"manifest_sha256": sha, "split": {"val": ["room4"]}}}
@@ -259,7 +260,8 @@ import ssgi
 from tests import ui_recorder
 bpy.ops.wm.read_factory_settings(use_empty=True)
 ssgi.register()
-from ssgi.ssgi_addon import jobs, report_cli
+from ssgi.ssgi_addon.runtime import jobs
+from ssgi.ssgi_addon.commands import report as report_cli
 from ssgi.panels.report_panel import SSGI_PT_report
 sc = bpy.context.scene
 data, models, out = sys.argv[1], sys.argv[2].split(";"), sys.argv[3]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from collections import Counter
 
-from ssgi.ssgi_addon import room
+from ssgi.ssgi_addon.blender import room
 
 from .conftest import run_cli, run_py
 
@@ -17,7 +17,7 @@ def _jsonable(d):
 def test_same_seed_same_scene_in_two_processes_and_other_seeds_differ(factory_bpy):
     code = """
     import json, bpy
-    from ssgi.ssgi_addon import room
+    from ssgi.ssgi_addon.blender import room
     bpy.ops.wm.read_factory_settings(use_empty=True)
     out = {}
     for seed in (11, 12):

@@ -3,8 +3,9 @@ import numpy as np
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, network, normalize
-from ssgi.model.bench import synthetic_groups
+from ssgi.model.learn import checkpoint, network
+from ssgi.model import normalize
+from ssgi.model.infer.bench import synthetic_groups
 
 SPEC = ch.parse_spec("albedo,normal,depth,direct,lit,scene")
 

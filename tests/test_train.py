@@ -7,11 +7,12 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, data, exrio, network, synthetic
-from ssgi.model import dataset as ds_mod
-from ssgi.model.baseline import fit, run_baseline
+from ssgi.model.learn import checkpoint, data, network
+from ssgi.model.dataset import exrio, synthetic
+from ssgi.model.dataset import folder as ds_mod
+from ssgi.model.learn.baseline import fit, run_baseline
 from ssgi.model.errors import UserError
-from ssgi.model.train import Diverged, TrainConfig, Trainer
+from ssgi.model.learn.train import Diverged, TrainConfig, Trainer
 
 from .conftest import run_cli
 
@@ -238,7 +239,8 @@ import ssgi
 from tests import ui_recorder
 bpy.ops.wm.read_factory_settings(use_empty=True)
 ssgi.register()
-from ssgi.ssgi_addon import jobs, training
+from ssgi.ssgi_addon.runtime import jobs
+from ssgi.ssgi_addon.pipeline import training
 from ssgi.panels.train_panel import SSGI_PT_train
 sc = bpy.context.scene
 sc.ssgi.dataset_dir, sc.ssgi.train_out, sc.ssgi.train_variant = sys.argv[1], sys.argv[2], "unet_s"
@@ -306,7 +308,7 @@ def test_blender_train_cancel_keeps_last_checkpoint(tmp_path, dataset_dir):
 
 def test_background_pixels_are_left_out_of_metrics_and_loss(dataset_dir):
     """Where nothing was hit (zero normal) the world shows; the metrics and the baseline fit ignore it."""
-    from ssgi.model.train import evaluate
+    from ssgi.model.learn.train import evaluate
     net = network.build(network.arch_for("linear", space="linear"))
     with torch.no_grad():
         net.conv.weight.zero_()

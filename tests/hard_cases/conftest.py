@@ -15,9 +15,9 @@ import time
 import numpy as np
 import pytest
 
-from ssgi.model import synthetic
-from ssgi.model.bench import synthetic_groups
-from ssgi.model.train import TrainConfig, Trainer
+from ssgi.model.dataset import synthetic
+from ssgi.model.infer.bench import synthetic_groups
+from ssgi.model.learn.train import TrainConfig, Trainer
 
 from ..conftest import ROOT, clean
 

@@ -19,9 +19,11 @@ cli.load_package()
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from ssgi.model import checkpoint, exrio, metrics, synthetic  # noqa: E402
-from ssgi.model.bench import synthetic_groups  # noqa: E402
-from ssgi.model.train import Trainer  # noqa: E402
+from ssgi.model.learn import checkpoint
+from ssgi.model.dataset import exrio, synthetic
+from ssgi.model import metrics  # noqa: E402
+from ssgi.model.infer.bench import synthetic_groups  # noqa: E402
+from ssgi.model.learn.train import Trainer  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "tests" / "hard_cases"))
 from conftest import MODELS, train_cfg  # noqa: E402

@@ -14,7 +14,8 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, network, normalize
+from ssgi.model.learn import checkpoint, network
+from ssgi.model import normalize
 
 from ..conftest import run_py
 
@@ -25,8 +26,8 @@ RENDER = '''
 import json, math, sys
 import bpy, numpy as np
 import ssgi
-from ssgi.ssgi_addon import passes
-from ssgi.ssgi_addon import render as R
+from ssgi.ssgi_addon.blender import passes
+from ssgi.ssgi_addon.pipeline import render as R
 from ssgi.ops.node_ops import setup_scene
 out_dir, model = sys.argv[1], sys.argv[2]
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -101,7 +102,7 @@ def test_depth_extremes_normalise_to_finite_well_defined_values(renders, name):
     present, whatever EEVEE writes there (+Inf in perspective at clip end 1e5: half-float overflow; the clip
     end 1e5 in orthographic; ~100 at clip end 100), and normalises to exactly 1; geometry normalises into
     (0, 1), the wall 4 m away measures 4 m; the render path's world mask finds exactly the sky."""
-    from ssgi.ssgi_addon import render as R  # bpy-importing module: imported here, not at collection
+    from ssgi.ssgi_addon.pipeline import render as R
 
     g = renders[name]
     assert g["depth"].shape == (H, W, 1)
@@ -153,7 +154,7 @@ def test_render_path_without_normal_input_keeps_sky_as_background(renders):
     dn = _depth_input(s, NO_NORMAL)
     assert (dn[sky] == 1.0).all() and ((dn[~sky] > 0) & (dn[~sky] < 1)).all()
     pred = checkpoint.load_predictor(renders["model"]).predict(s)
-    from ssgi.ssgi_addon import render as R
+    from ssgi.ssgi_addon.pipeline import render as R
     np.testing.assert_allclose(s["prediction"], R.compose(pred, s, 1e5), rtol=1e-5, atol=1e-6)
 
 

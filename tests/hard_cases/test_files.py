@@ -13,7 +13,8 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, exrio, network, synthetic
+from ssgi.model.learn import checkpoint, network
+from ssgi.model.dataset import exrio, synthetic
 
 from ..conftest import run_cli
 

@@ -25,7 +25,7 @@ BAKE = ("--count", "3", "--seed", "11", "--size", "32x18", "--ref-samples", "2",
 
 
 def _samples(folder: Path) -> dict:
-    from ssgi.model import exrio
+    from ssgi.model.dataset import exrio
     return {p.stem: exrio.read_sample(p) for p in sorted(folder.glob("[0-9]*.exr"))}
 
 
@@ -60,7 +60,7 @@ def test_killed_bake_reruns_to_a_valid_dataset_with_the_same_pixels(tmp_path):
 # the temporary folder fails first) or the dataset folder is moved away (the sample's write fails).
 _FAIL_AFTER_ONE = """
 import os, resource, sys
-from ssgi.ssgi_addon import bake
+from ssgi.ssgi_addon.pipeline import bake
 from ssgi.model.errors import UserError
 out, how = sys.argv[1], sys.argv[2]
 def progress(done, total, info):
@@ -109,7 +109,7 @@ def test_killed_render_reruns_to_complete_valid_frames(room, tmp_path):
     temporary frame file as a kill in the middle of a write leaves it, then run again: every frame is a
     complete, readable 64x36 RGBA image with finite values, and no temporary file is left in the output
     folder."""
-    from ssgi.model import exrio
+    from ssgi.model.dataset import exrio
     out = tmp_path / "frames"
     args = ["render", "--blend", str(room["blend"]), "--out", str(out / "f_####"), "--frames", "1-3", "--samples", "1"]
     kill_at_random(args, lambda: (out / "f_0001.exr").is_file(), seed=3, span=3.0)
@@ -132,7 +132,7 @@ def test_temporary_render_files_of_killed_processes_are_swept(tmp_path):
     import sys
     import time
 
-    from ssgi.ssgi_addon import passes
+    from ssgi.ssgi_addon.blender import passes
     child = subprocess.Popen([sys.executable, "-c", "pass"])
     child.wait()
     dead, old = child.pid, time.time() - 2 * passes.STALE_TEMP_S

@@ -10,7 +10,9 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, exrio, metrics, network, normalize, variants
+from ssgi.model.learn import checkpoint, network, variants
+from ssgi.model.dataset import exrio
+from ssgi.model import metrics, normalize
 
 from ..conftest import run_cli
 from .conftest import groups

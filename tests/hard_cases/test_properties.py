@@ -12,8 +12,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from ssgi.model import channels as ch
-from ssgi.model import checkpoint, metrics, network, normalize
-from ssgi.model.bench import synthetic_groups
+from ssgi.model.learn import checkpoint, network
+from ssgi.model import metrics, normalize
+from ssgi.model.infer.bench import synthetic_groups
 from ssgi.model.errors import UserError
 
 FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

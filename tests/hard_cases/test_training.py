@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 import torch
 
-from ssgi.model import checkpoint, data, exrio, synthetic
-from ssgi.model.train import Diverged, Trainer
+from ssgi.model.learn import checkpoint, data
+from ssgi.model.dataset import exrio, synthetic
+from ssgi.model.learn.train import Diverged, Trainer
 
 from ..conftest import run_cli
 from .conftest import kill_at_random, train_cfg

@@ -1,0 +1,76 @@
+"""Tiny synthetic datasets in the real dataset format, for tests and smoke runs (bpy-free).
+
+Not rendered: each sample is random axis-aligned rectangles of albedo / normal / depth, a direct-light
+pattern with hard-edged "shadows", and a made-up reference with a non-local term a network can learn:
+
+    ref = albedo * (direct + 0.6 * gaussian_blur(albedo * direct, sigma = 3 px) + 0.02)
+
+The folder follows the dataset contract: ``manifest.json`` (format_version, blender_version, channel_spec,
+settings, samples{key: seed, scene, camera, frame, timings}) and ``000000.exr`` ... written by exrio.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .. import channels as ch
+from . import exrio
+
+
+def sample(w: int, h: int, seed: int, scene_seed: int) -> dict[str, np.ndarray]:
+    from scipy.ndimage import gaussian_filter
+
+    rs = np.random.default_rng(scene_seed)  # the scene: geometry and materials
+    rl = np.random.default_rng(seed)  # this view's light
+    albedo = np.full((h, w, 3), rs.uniform(0.3, 0.8, 3), np.float32)
+    normal = np.zeros((h, w, 3), np.float32)
+    normal[..., 2] = 1
+    depth = np.full((h, w, 1), rs.uniform(4, 8), np.float32)
+    for _ in range(6):
+        y0, x0 = rs.integers(0, h), rs.integers(0, w)
+        y1, x1 = min(h, y0 + rs.integers(3, h // 2 + 4)), min(w, x0 + rs.integers(3, w // 2 + 4))
+        albedo[y0:y1, x0:x1] = rs.uniform(0.05, 0.95, 3)
+        n = rs.normal(size=3)
+        n[2] = abs(n[2]) + 0.3
+        normal[y0:y1, x0:x1] = n / np.linalg.norm(n)
+        depth[y0:y1, x0:x1] = rs.uniform(1, 6)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    cx, cy = rl.uniform(0, w), rl.uniform(0, h)
+    fall = 1.0 / (1.0 + ((xx - cx) ** 2 + (yy - cy) ** 2) / (0.3 * w) ** 2)
+    direct = (rl.uniform(1, 3) * fall)[..., None] * np.maximum(normal[..., 2:3], 0) * np.ones(3, np.float32)
+    for _ in range(3):  # hard shadows
+        y0, x0 = rl.integers(0, h), rl.integers(0, w)
+        direct[y0:y0 + rl.integers(2, h // 3 + 3), x0:x0 + rl.integers(2, w // 3 + 3)] = 0
+    bounce = np.stack([gaussian_filter(albedo[..., c] * direct[..., c], 3) for c in range(3)], -1)
+    world = np.full((h, w, 3), 0.02, np.float32)  # a dim uniform sky, unoccluded
+    ref = albedo * (direct + 0.6 * bounce + world)
+    lit = albedo * direct
+    eevee = np.concatenate([lit, np.ones((h, w, 1), np.float32)], -1)
+    ao = np.ones((h, w, 1), np.float32)
+    return dict(albedo=albedo, normal=normal, depth=depth, direct=direct.astype(np.float32), ao=ao,
+                world=world, eevee=eevee.astype(np.float32), ref=ref.astype(np.float32))
+
+
+def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int = 32, seed: int = 0,
+                 half: bool = False) -> Path:
+    """Write a synthetic dataset folder; returns its path."""
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    samples = {}
+    k = 0
+    for s in range(scenes):
+        for v in range(per_scene):
+            key = f"{k:06d}"
+            sd = seed * 100003 + k
+            exrio.write_sample(root / f"{key}.exr", sample(w, h, sd, seed * 1009 + s), half=half)
+            samples[key] = dict(seed=sd, scene=f"synthetic-{seed}-{s}", camera=v, frame=1, timings={})
+            k += 1
+    m = dict(format_version=ch.FORMAT_VERSION, blender_version="synthetic", channel_spec=ch.describe(),
+             settings=dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), samples=samples)
+    tmp = root / f".manifest.json.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps(m, indent=1))
+    os.replace(tmp, root / "manifest.json")
+    return root

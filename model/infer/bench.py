@@ -1,0 +1,107 @@
+"""Prediction benchmark (``cli.py bench``): time and peak memory of each variant at several sizes.
+
+Times the whole ``Predictor.predict`` (normalisation + network + output transform, tiled as shipped) on
+synthetic inputs, the median of ``repeats`` runs after one warm-up, with ``torch.set_num_threads(threads)``.
+Untrained variants time the same as trained ones (the weights do not change the work). Peak memory is the
+growth of the process's peak resident set (VmHWM, reset through /proc/self/clear_refs) during the runs.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+
+
+def _vm(key: str) -> int:
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
+def _reset_peak() -> bool:
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        return True
+    except OSError:
+        return False
+
+
+def synthetic_groups(w: int, h: int, seed: int = 0) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    n = rng.normal(size=(h, w, 3)).astype(np.float32)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return dict(albedo=rng.uniform(0, 1, (h, w, 3)).astype(np.float32), normal=n,
+                depth=rng.uniform(1, 10, (h, w, 1)).astype(np.float32),
+                direct=rng.exponential(1.0, (h, w, 3)).astype(np.float32),
+                ao=rng.uniform(0, 1, (h, w, 1)).astype(np.float32),
+                world=np.broadcast_to(rng.uniform(0, 1, 3).astype(np.float32), (h, w, 3)).copy())
+
+
+def _parse_size(s: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in s.lower().split("x"))
+        assert w > 0 and h > 0
+        return w, h
+    except (ValueError, AssertionError):
+        raise UserError(f"size {s!r} is not WIDTHxHEIGHT (e.g. 240x135)") from None
+
+
+def time_predictor(pred, w: int, h: int, repeats: int = 5) -> dict:
+    groups = synthetic_groups(w, h)
+    pred.predict(groups)  # warm-up
+    base = _vm("VmRSS")
+    ok = _reset_peak()
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        pred.predict(groups)
+        ts.append(time.perf_counter() - t)
+    peak = (_vm("VmHWM") - base) if ok else None
+    return dict(ms=1000 * float(np.median(ts)), ms_min=1000 * float(np.min(ts)),
+                peak_mb=None if peak is None else max(0, peak) / 2 ** 20)
+
+
+def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, precisions=("fp32",), out=None) -> dict:
+    import torch
+
+    from ..learn import checkpoint, network, variants as V
+
+    torch.set_num_threads(threads)
+    sizes = [_parse_size(s) for s in sizes]
+    names = list(variants) if variants is not None else list(V.TRAINABLE) + ["linear"]
+    rows = []
+    todo = [(n, None) for n in names] + [(None, m) for m in models]
+    for name, model in todo:
+        if model is None:
+            if name not in V.VARIANTS:
+                raise UserError(f"unknown variant {name!r}; known: {', '.join(V.VARIANTS)}")
+            torch.manual_seed(0)
+            net = network.build(network.arch_for(name))
+            ckpt = checkpoint.make(net.eval(), "network", command="bench")
+        else:
+            ckpt = checkpoint.load(model)
+            net = checkpoint.build_net(ckpt, model)
+        label = name or str(model)
+        macs = network.macs_per_pixel(net)
+        for prec in precisions:
+            pred = checkpoint.Predictor(net, ckpt, path=label, precision=prec)
+            for w, h in sizes:
+                r = time_predictor(pred, w, h, repeats if w * h < 1e6 else max(1, repeats // 2))
+                row = dict(model=label, precision=prec, size=f"{w}x{h}", params=network.count_params(net),
+                           macs_per_px=macs, **r)
+                rows.append(row)
+                print(f"{label:>10} {prec:>8} {w:>5}x{h:<5} {r['ms']:9.1f} ms (min {r['ms_min']:.1f})"
+                      + (f"  peak +{r['peak_mb']:.0f} MB" if r["peak_mb"] is not None else ""), file=sys.stderr, flush=True)
+    res = dict(threads=threads, torch=torch.__version__, rows=rows)
+    if out:
+        Path(out).write_text(json.dumps(res, indent=1))
+    return res

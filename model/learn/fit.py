@@ -1,0 +1,718 @@
+"""Fit a model to ONE scene (bpy-free): size search smallest first, input-pass ablation, the decision table.
+
+``fit(FitConfig(...), log=..., callback=..., should_stop=...)`` works on a dataset folder of *views* of one
+scene (baked by ``cli.py bake --scenes``; ssgi_addon/fit.py makes the views) whose samples are split by the
+caller into three disjoint sets of keys:
+
+    train  the views the networks learn from
+    val    held-out views that choose: the best epoch of each run, the size, the inputs
+    test   held-out views that only judge: the final model against the generic one (never used to choose)
+
+Method (one time budget, ``minutes``, shared by all phases; a run stops early when the budget says so):
+
+1. **Generic.** The starting checkpoint (``init``: the shipped default model, or one given) is scored on the
+   val and test views as it is. The target PSNR defaults to its val PSNR + ``TARGET_GAIN_DB`` (2 dB), or to
+   ``DEFAULT_TARGET_PSNR`` without a starting checkpoint.
+2. **Size search.** The candidates are the ``ladder`` of small architectures (overrides of
+   ``network.arch_for``) trained from scratch on all ``INPUT_GROUPS`` and, when there is a starting
+   checkpoint, that checkpoint fine-tuned (its own architecture and inputs), ordered by multiply-accumulates
+   per pixel, smallest first. Each gets an equal share of ``SIZE_SHARE`` of the budget and stops as soon as
+   its val PSNR reaches the target. The first candidate that reaches the target is kept; when none does,
+   the one with the best val PSNR is kept (and the report says the target was missed).
+3. **Input selection.** The kept network is fine-tuned briefly on its own inputs (the control) and, for each
+   input group the head does not need (``DROP_ORDER``), with that group removed: the first layers' weights
+   for the removed channels are cut out (``drop_inputs``), the rest kept, and the same short fine-tune
+   follows. A group is dropped when the val PSNR without it is at most ``drop_tol`` dB below the control's.
+   Drops accumulate (each later trial starts from the last accepted network), and the comparison is always
+   against the control, so all drops together cost at most ``drop_tol`` dB on the val views.
+4. **Polish.** What is left of the budget trains the kept network on the kept inputs.
+5. **Report.** The final model is scored on the test views beside the generic model; prediction time of
+   both is measured (``bench.time_predictor`` at the views' size). The table of every run, the decisions and
+   the verdict go into the checkpoint (key ``fit``) and into ``MODEL.fit_report.json`` / ``.md`` beside it.
+
+Inputs are built the way the render path builds them (ssgi_addon/render.py): from the stored groups the spec
+needs plus the normals, which mark the no-geometry pixels for the depth normalisation even when the spec
+drops normals (``normalize.to_inputs``), so a model that keeps depth but drops normals sees what it will see.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .. import channels as ch
+from ..infer import bench
+from . import checkpoint, data, network
+from ..dataset import exrio
+from .. import metrics, normalize
+from ..errors import UserError
+from .train import TrainConfig, Trainer, evaluate
+
+TARGET_GAIN_DB = 2.0
+DEFAULT_TARGET_PSNR = 30.0
+SIZE_SHARE = 0.5  # of the budget, for the size search
+ABLATION_SHARE = 0.3  # ... for the input ablation (control + one run per droppable group)
+MIN_RUN_S = 5.0  # a run shorter than this is not started
+# input groups tried for removal, in this order (cheapest pass to lose first)
+# `world` first: dropping it saves a whole second EEVEE render (docs/bake.md), and a scene without sky light
+# loses nothing without it
+DROP_ORDER = ("world", "scene", "ao", "depth", "normal", "lit", "direct", "albedo")
+HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
+
+# smallest first: (name, variant, overrides of network.arch_for). Narrow full-resolution levels: at 960x540
+# the full-resolution convolutions dominate the time (measured, docs/fit.md), so level 0 is 4-12 wide.
+LADDER: tuple[tuple[str, str, dict], ...] = (
+    ("xs", "unet", dict(widths=[4, 12, 24, 32], convs=[1, 1, 1, 2])),
+    ("s", "unet", dict(widths=[6, 16, 32, 48], convs=[1, 1, 2, 2])),
+    ("m", "unet", dict(widths=[12, 24, 32, 48], convs=[1, 1, 2, 2])),
+)
+
+
+@dataclass
+class FitConfig:
+    data: str
+    out: str
+    train_keys: list
+    val_keys: list
+    test_keys: list = field(default_factory=list)
+    minutes: float = 10.0
+    target_psnr: float | None = None
+    init: str | None = None
+    ladder: list = field(default_factory=lambda: [list(x) for x in LADDER])
+    # the inputs scratch candidates start from: every stored pass ("scene" is derived; the shipped model has it)
+    inputs: str = ch.format_spec(tuple(g for g in ch.INPUT_GROUPS if g != "scene"))
+    drop_tol: float = 0.1
+    batch: int = 16
+    crop: int = 64
+    threads: int | None = None
+    seed: int = 0
+    bench_repeats: int = 5
+    bench_size: str | None = "960x540"  # the final and the generic model are also timed at this size
+    min_run_s: float = MIN_RUN_S  # a training run shorter than this is not started
+    command: str | None = None
+
+    def check(self) -> None:
+        if not self.minutes > 0 or not math.isfinite(self.minutes):
+            raise UserError(f"--minutes must be > 0 (got {self.minutes})")
+        if self.target_psnr is not None and not math.isfinite(self.target_psnr):
+            raise UserError(f"--target-psnr must be a number (got {self.target_psnr})")
+        if not self.drop_tol >= 0 and self.drop_tol != -math.inf:
+            raise UserError(f"--drop-tol must be >= 0 dB (got {self.drop_tol})")
+        if not self.train_keys:
+            raise UserError(f"{self.data}: no training views (every view is held out)")
+        if not self.val_keys:
+            raise UserError(f"{self.data}: no held-out validation views")
+        sets = [set(map(str, k)) for k in (self.train_keys, self.val_keys, self.test_keys)]
+        if sets[0] & sets[1] or sets[0] & sets[2] or sets[1] & sets[2]:
+            raise UserError("train, validation and test views must be disjoint")
+        ch.parse_spec(self.inputs)
+        for row in self.ladder:
+            if len(row) != 3 or not isinstance(row[2], dict):
+                raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")
+
+
+# ---------------------------------------------------------------------------------------------- data
+
+class Views:
+    """The raw groups of every view, read once; ``dataset(spec, keys)`` builds training samples for a spec
+    the way the Predictor builds its input."""
+
+    def __init__(self, root, keys, log=None):
+        self.root = Path(root)
+        self.manifest = data.read_manifest(self.root)
+        self.raw: dict[str, dict[str, np.ndarray]] = {}
+        self.skipped: dict[str, str] = {}
+        groups = tuple(dict.fromkeys(ch.required_groups(ch.INPUT_GROUPS) + ("normal", "depth", ch.TARGET_GROUP)))
+        for key in sorted(set(map(str, keys))):
+            if key not in self.manifest["samples"]:
+                raise UserError(f"{self.root / 'manifest.json'}: lists no view {key!r}")
+            path = self.root / f"{key}.exr"
+            if not path.is_file():
+                raise UserError(f"{path}: listed in the manifest but missing (re-run the bake to complete it)")
+            g = exrio.read_sample(path, groups)
+            if not np.isfinite(normalize.target(g)).all():
+                self.skipped[key] = "non-finite reference pixel(s)"
+                if log:
+                    log(f"view {key}: left out ({self.skipped[key]})")
+                continue
+            self.raw[key] = g
+        sizes = {v["ref"].shape[:2] for v in self.raw.values()}
+        if len(sizes) > 1:
+            raise UserError(f"{self.root}: views have different sizes {sorted(sizes)}")
+        self.size = next(iter(sizes)) if sizes else (0, 0)  # (H, W)
+
+    def keys(self, keys) -> list[str]:
+        return [k for k in sorted(set(map(str, keys))) if k in self.raw]
+
+    def samples(self, spec, keys, label: str) -> list[data.Sample]:
+        spec = tuple(spec)
+        out = []
+        for k in self.keys(keys):
+            g = self.raw[k]
+            x, rep = normalize.to_inputs({n: g[n] for n in ch.required_groups(spec) + ("normal",)}, spec)
+            y = np.ascontiguousarray(normalize.target(g))
+            mask = normalize.geometry_mask(g["depth"], g["normal"])
+            out.append(data.Sample(k, label, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
+                                   torch.from_numpy(y).permute(2, 0, 1).contiguous(), rep, torch.from_numpy(mask)))
+        return out
+
+    def dataset(self, spec, train_keys, val_keys) -> data.DatasetFolder:
+        spec = ch.parse_spec(spec)
+        return data.DatasetFolder(root=self.root, spec=spec, manifest=self.manifest,
+                                  samples=self.samples(spec, train_keys, "fit-train") + self.samples(spec, val_keys, "fit-val"))
+
+
+class FitTrainer(Trainer):
+    """The project's Trainer with the views' own split (train / held-out val keys instead of a split by
+    scene) and, optionally, starting weights (fine-tuning)."""
+
+    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder, init_state: dict | None = None, log=None):
+        super().__init__(cfg, dataset=dataset, log=log)
+        self.init_state = init_state
+
+    def _setup(self):
+        super()._setup()  # split_scenes sees the two labels "fit-train" / "fit-val"; replaced here
+        ds = self.dataset
+        self.train_set = [s for s in ds.samples if s.scene == "fit-train"]
+        self.val_set = [s for s in ds.samples if s.scene == "fit-val"]
+        H = min(s.x.shape[1] for s in self.train_set)
+        W = min(s.x.shape[2] for s in self.train_set)
+        self.crop = (min(self.cfg.crop, H), min(self.cfg.crop, W))
+        area = np.mean([s.x.shape[1] * s.x.shape[2] for s in self.train_set])
+        self.cpi = self.cfg.crops_per_image or max(1, int(round(area / (self.crop[0] * self.crop[1]))))
+        self.identity["split"] = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set],
+                                      by="view")
+        if self.init_state is not None:
+            self.net.load_state_dict(self.init_state)
+            self._snapshot()
+
+
+# ---------------------------------------------------------------------------------------------- surgery
+
+def drop_inputs(net, new_spec) -> torch.nn.Module:
+    """A network for ``new_spec`` (a sub-sequence of ``net``'s input spec, same order) with ``net``'s weights:
+    every weight that reads the input tensor (the first conv, and the layer where the input is concatenated
+    again; in both backbones the input comes LAST in the concatenation) keeps the columns of the kept
+    channels; every other weight is copied as it is."""
+    old_spec = tuple(net.arch["inputs"])
+    new_spec = ch.parse_spec(new_spec)
+    if [g for g in old_spec if g in new_spec] != list(new_spec):
+        raise UserError(f"inputs {ch.format_spec(new_spec)} are not a sub-sequence of {ch.format_spec(old_spec)}")
+    lay = normalize.layout(old_spec)
+    kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
+    c_old, c_new = ch.input_channels(old_spec), len(kept)
+    arch = dict(net.arch, inputs=list(new_spec))
+    new = network.build(arch)
+    old_sd, new_sd = net.state_dict(), new.state_dict()
+    out = {}
+    for k, w in new_sd.items():
+        o = old_sd[k]
+        if o.shape == w.shape:
+            out[k] = o.detach().clone()
+            continue
+        if o.dim() != 4 or o.shape[1] - w.shape[1] != c_old - c_new or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
+            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs {ch.format_spec(new_spec)} {tuple(w.shape)}")
+        base = o.shape[1] - c_old
+        cols = list(range(base)) + [base + i for i in kept]
+        out[k] = o[:, cols].detach().clone()
+    new.load_state_dict(out)
+    return new
+
+
+def droppable(spec, head: str) -> list[str]:
+    need = HEAD_NEEDS.get(head, ())
+    return [g for g in DROP_ORDER if g in spec and g not in need]
+
+
+# ---------------------------------------------------------------------------------------------- the driver
+
+REPORT_RESERVE = (0.05, 5.0)  # training ends this share of the budget + seconds early: scoring and timing follow
+
+
+class Budget:
+    def __init__(self, minutes: float):
+        self.t0 = time.perf_counter()
+        self.total = max(1.0, 60.0 * minutes - REPORT_RESERVE[0] * 60.0 * minutes - REPORT_RESERVE[1])
+
+    @property
+    def used(self) -> float:
+        return time.perf_counter() - self.t0
+
+    @property
+    def left(self) -> float:
+        return max(0.0, self.total - self.used)
+
+
+class Cancelled(Exception):
+    pass
+
+
+def _f(v):
+    """Plain float (or None) for checkpoints (weights_only) and JSON."""
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else (None if math.isnan(v) else v)
+
+
+def _arch_label(arch: dict) -> str:
+    if arch.get("backbone") == "unet":
+        return f"unet w{'/'.join(map(str, arch['widths']))} c{'/'.join(map(str, arch['convs']))}"
+    if arch.get("backbone") == "fssgi":
+        return f"fssgi w{arch['width']} {arch['pre']}+{arch['post']}"
+    return str(arch.get("variant"))
+
+
+def _predictor(net) -> checkpoint.Predictor:
+    """``net`` as the node runs it (Predictor.predict: output bound, 0 where the albedo is black)."""
+    return checkpoint.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
+
+
+def _time_ms(net, size, repeats: int) -> float:
+    """Fastest of ``repeats`` predictions of a view (ms): the whole Predictor.predict, as the node runs it.
+    The minimum, not the median: the 2 cores are shared, and other processes only ever add time."""
+    w, h = size  # bench's synthetic input holds every stored input group (world included)
+    return bench.time_predictor(_predictor(net), w, h, repeats=max(1, repeats))["ms_min"]
+
+
+class Fitter:
+    def __init__(self, cfg: FitConfig, log=None, callback=None, should_stop=None):
+        cfg.check()
+        self.cfg = cfg
+        self.log = log or (lambda m: print(m, file=sys.stderr, flush=True))
+        self.cb = callback or (lambda d: None)
+        self.stop = should_stop or (lambda: False)
+        self.out = Path(cfg.out)
+        self.work = self.out.with_name(self.out.stem + ".fit")
+        self.rows: list[dict] = []
+        self.runs = 0
+
+    # -- progress ---------------------------------------------------------------------------------------
+    def _report(self, phase: str, message: str, **kw):
+        self.cb(dict(phase=phase, message=message, progress=min(1.0, self.budget.used / self.budget.total),
+                     elapsed_s=self.budget.used, left_s=self.budget.left, **kw))
+
+    def _check_stop(self):
+        if self.stop():
+            raise Cancelled()
+
+    # -- one training run -------------------------------------------------------------------------------
+    def _train(self, name: str, arch: dict, spec, seconds: float, init_state=None, target=None):
+        """Train ``arch`` on ``spec`` for ``seconds`` (fine-tuning ``init_state`` when given); returns
+        (net with the best val weights, summary). Stops early when the val PSNR reaches ``target``."""
+        self._check_stop()
+        spec = ch.parse_spec(spec)
+        ds = self.views.dataset(spec, self.train_keys, self.val_keys)
+        overrides = {k: v for k, v in arch.items() if k in network.BACKBONES[network.VARIANTS[arch["variant"]]["backbone"]][1]}
+        self.runs += 1
+        out = self.work / f"{self.runs:02d}_{name}.pt"
+        tc = TrainConfig(data=str(self.views.root), out=str(out), variant=arch["variant"], inputs=ch.format_spec(spec),
+                         arch=overrides, minutes=max(seconds, 1.0) / 60.0, batch=self.cfg.batch, crop=self.cfg.crop,
+                         threads=self.cfg.threads, seed=self.cfg.seed,
+                         lr=3e-4 if init_state is not None else None, command=self.cfg.command)
+        reached = {"v": False}
+        cancelled = {"v": False}
+
+        def stop():
+            if self.stop():
+                cancelled["v"] = True
+                return True
+            if self.budget.left <= 0:
+                return True
+            return reached["v"]
+
+        def cb(d):
+            if target is not None and d.get("best_psnr") is not None and d["best_psnr"] >= target:
+                reached["v"] = True
+            self._report(self.phase, f"{name}: epoch {d['epoch']}"
+                         + (f", val {d['val_psnr']:.2f} dB" if d.get("val_psnr") is not None else ""),
+                         run=name, val_psnr=d.get("val_psnr"), best_psnr=d.get("best_psnr"))
+
+        quiet = []
+        tr = FitTrainer(tc, ds, init_state=init_state, log=quiet.append)
+        res = tr.run(callback=cb, should_stop=stop)
+        if cancelled["v"]:
+            raise Cancelled()
+        best = res.get("best") or {}
+        if best and out.is_file():
+            net = checkpoint.build_net(checkpoint.load(out), out)
+        else:  # no epoch completed: the weights as they are
+            net = tr.net.eval()
+            best = dict(evaluate(net, tr.val_set), epoch=0, minutes=res["minutes"])
+        return net, dict(val_psnr=_f(best.get("val_psnr")), val_tm_psnr=_f(best.get("val_tm_psnr")),
+                         epochs=int(res["epochs"]), minutes=_f(res["minutes"]), reached=bool(reached["v"]))
+
+    def _score(self, net, keys) -> dict:
+        samples = self.views.samples(tuple(net.arch["inputs"]), keys, "score")
+        if not samples:
+            return {}
+        ev = evaluate(net, samples)
+        return dict(psnr=_f(ev["val_psnr"]), tm_psnr=_f(ev["val_tm_psnr"]), ssim=_f(ev["val_ssim"]))
+
+    def _score_node(self, net, keys) -> dict:
+        """The views scored through Predictor.predict, i.e. what the SSGI node shows (``_score`` scores the raw
+        network output, as training's validation does; the fit's decisions use that one). Pooled over the
+        geometry pixels; SSIM with the reference pasted where nothing was hit, as ``evaluate`` does."""
+        keys = self.views.keys(keys)
+        if not keys:
+            return {}
+        was_training = net.training
+        pred = _predictor(net)
+        p, tp, ss = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True), []
+        try:
+            for k in keys:
+                g = self.views.raw[k]
+                out, ref = pred.predict(g), normalize.target(g)
+                m = normalize.geometry_mask(g["depth"], g["normal"])
+                p.add(out[m], ref[m])
+                tp.add(out[m], ref[m])
+                ss.append(metrics.ssim(np.where(m[..., None], out, ref), ref))
+        finally:
+            net.train(was_training)
+        return dict(psnr=_f(p.value), tm_psnr=_f(tp.value), ssim=_f(float(np.mean(ss))))
+
+    def _ms(self, net, size=None, repeats=None) -> float:
+        return _f(_time_ms(net, size or self.views.size, repeats or self.cfg.bench_repeats))
+
+    # -- the fit --------------------------------------------------------------------------------------
+    def run(self) -> dict:
+        cfg = self.cfg
+        self.budget = Budget(cfg.minutes)
+        self.phase = "load"
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
+        self.work.mkdir(parents=True, exist_ok=True)
+        self.views = Views(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys), log=self.log)
+        self.train_keys, self.val_keys = self.views.keys(cfg.train_keys), self.views.keys(cfg.val_keys)
+        self.test_keys = self.views.keys(cfg.test_keys)
+        if not self.train_keys or not self.val_keys:
+            raise UserError(f"{cfg.data}: no usable training or validation views (left out: {self.views.skipped})")
+        self.log(f"fit: {len(self.train_keys)} train / {len(self.val_keys)} val / {len(self.test_keys)} test views "
+                 f"of {self.views.size[1]}x{self.views.size[0]}, budget {cfg.minutes:g} min")
+        try:
+            return self._run()
+        except Cancelled:
+            self.log("fit cancelled; no model written")
+            self._report("cancelled", "cancelled")
+            return dict(status="cancelled", model=None, rows=self.rows)
+
+    def _run(self) -> dict:
+        cfg = self.cfg
+        generic = None
+        if cfg.init:
+            ck = checkpoint.load(cfg.init)
+            gnet = checkpoint.build_net(ck, cfg.init)
+            generic = dict(path=str(cfg.init), arch=dict(ck["arch"]), net=gnet, params=network.count_params(gnet),
+                           macs=_f(network.macs_per_pixel(gnet)), val=self._score(gnet, self.val_keys),
+                           test=self._score(gnet, self.test_keys), ms=self._ms(gnet))
+            self.log(f"generic {cfg.init}: val {generic['val']['psnr']:.2f} dB, {generic['ms']:.1f} ms per view")
+        target = cfg.target_psnr
+        if target is None:
+            target = generic["val"]["psnr"] + TARGET_GAIN_DB if generic else DEFAULT_TARGET_PSNR
+        self.target = float(target)
+        self.log(f"target: {self.target:.2f} dB val PSNR")
+
+        # ---- size search
+        self.phase = "size"
+        spec0 = ch.parse_spec(cfg.inputs)
+        cands = []
+        for name, variant, over in cfg.ladder:
+            arch = network.arch_for(variant, spec0, **over)
+            net = network.build(arch)
+            cands.append(dict(name=name, arch=arch, start="scratch", init_state=None,
+                              params=network.count_params(net), macs=_f(network.macs_per_pixel(net))))
+        if generic:
+            cands.append(dict(name="generic-ft", arch=dict(generic["arch"]), start="fine-tune",
+                              init_state=generic["net"].state_dict(), params=generic["params"], macs=generic["macs"]))
+        cands.sort(key=lambda c: (c["macs"], c["start"] != "fine-tune"))
+        chosen = None
+        results = []
+        size_end = self.budget.used + SIZE_SHARE * self.budget.left  # time a candidate leaves is shared by the next
+        for i, c in enumerate(cands):
+            secs = max(0.0, size_end - self.budget.used) / (len(cands) - i)
+            if secs < cfg.min_run_s and i == 0 and self.budget.left > 4 * cfg.min_run_s:
+                secs = cfg.min_run_s  # the smallest is always tried
+            if secs < cfg.min_run_s:
+                self.log(f"size {c['name']}: not tried (budget spent)")
+                self.rows.append(dict(phase="size", name=c["name"], arch=_arch_label(c["arch"]), start=c["start"],
+                                      params=c["params"], macs_per_px=c["macs"], decision="not tried (budget spent)"))
+                continue
+            self.log(f"size {c['name']} ({_arch_label(c['arch'])}, {c['params']:,} params, {c['start']}): {secs:.0f} s")
+            net, r = self._train(c["name"], c["arch"], tuple(c["arch"]["inputs"]), secs, c["init_state"], self.target)
+            r.update(name=c["name"], arch=_arch_label(c["arch"]), start=c["start"], params=c["params"],
+                     macs_per_px=c["macs"], ms=self._ms(net), net=net, spec=ch.format_spec(tuple(net.arch["inputs"])))
+            results.append(r)
+            self.log(f"size {c['name']}: val {r['val_psnr']:.2f} dB after {r['minutes']:.2f} min, {r['ms']:.1f} ms"
+                     + ("  reaches the target" if r["val_psnr"] >= self.target else ""))
+            if r["val_psnr"] is not None and r["val_psnr"] >= self.target:
+                chosen = r
+                for c2 in cands[i + 1:]:
+                    self.rows.append(dict(phase="size", name=c2["name"], arch=_arch_label(c2["arch"]), start=c2["start"],
+                                          params=c2["params"], macs_per_px=c2["macs"],
+                                          decision="not tried (a smaller one reached the target)"))
+                break
+        if not results:
+            raise UserError(f"--minutes {cfg.minutes:g}: too short for even one training run")
+        reached = chosen is not None
+        if chosen is None:
+            chosen = max(results, key=lambda r: (r["val_psnr"] if r["val_psnr"] is not None else -math.inf, -r["macs_per_px"]))
+        for r in results:
+            row = {k: v for k, v in r.items() if k != "net"}
+            row["phase"] = "size"
+            row["seconds"] = _f(60 * row.pop("minutes"))
+            row["decision"] = ("kept" if r is chosen else
+                               ("below target" if r["macs_per_px"] < chosen["macs_per_px"] else "not kept"))
+            self.rows.append(row)
+        order = {c["name"]: i for i, c in enumerate(cands)}
+        self.rows.sort(key=lambda r: order.get(r.get("name"), len(order)) if r["phase"] == "size" else len(order))
+        self.log(f"size: kept {chosen['name']} ({chosen['arch']}), val {chosen['val_psnr']:.2f} dB"
+                 + ("" if reached else f"; no candidate reached the target {self.target:.2f} dB"))
+
+        # ---- input selection
+        self.phase = "inputs"
+        net, spec, control = self._select_inputs(chosen["net"])
+
+        # ---- polish
+        self.phase = "polish"
+        polish = None
+        if self.budget.left >= cfg.min_run_s:
+            pnet, rp = self._train("final", dict(net.arch), spec, self.budget.left, net.state_dict())
+            pre = self._score(net, self.val_keys)["psnr"]
+            polish = dict(before=pre, after=rp["val_psnr"], seconds=_f(60 * rp["minutes"]))
+            if rp["val_psnr"] is not None and rp["val_psnr"] >= pre:
+                net = pnet
+        return self._finish(net, generic, chosen, reached, control, polish)
+
+    def _select_inputs(self, net):
+        """Ablation (module doc, step 3): every trial starts from ``net`` and trains for the same time as the
+        control, so the comparison is fair; the union of the groups that cost at most ``drop_tol`` dB alone
+        is then checked together (one more run). Returns (net, spec, control val PSNR)."""
+        cfg = self.cfg
+        spec = tuple(net.arch["inputs"])
+        head = net.arch.get("head", "log")
+        groups = droppable(spec, head)
+        for g in spec:
+            if g not in groups:
+                self.rows.append(dict(phase="inputs", group=g, spec=None, decision=f"kept (the {head} head needs it)"))
+        per = min(ABLATION_SHARE * self.budget.total, self.budget.left * 0.6) / (len(groups) + 2) if groups else 0.0
+        if not groups:
+            self.rows.append(dict(phase="inputs", group="(all)", decision="nothing to drop"))
+            return net, spec, None
+        # the ablation always runs, each run at least min_run_s: at most (groups + 2) * min_run_s over budget
+        per = max(per, cfg.min_run_s)
+
+        def row(group, sp, r, delta, decision):
+            self.rows.append(dict(phase="inputs", group=group, spec=ch.format_spec(sp), passes=list(ch.required_passes(sp)),
+                                  val_psnr=r["val_psnr"], delta_db=_f(delta), seconds=_f(60 * r["minutes"]), decision=decision))
+
+        ctrl_net, rc = self._train("control", dict(net.arch), spec, per, net.state_dict())
+        control = rc["val_psnr"]
+        row("(none: control)", spec, rc, 0.0, "control")
+        self.log(f"inputs: control (all of {ch.format_spec(spec)}): val {control:.2f} dB")
+        ok, deltas, nets = [], {}, {}
+        for g in groups:
+            new_spec = tuple(x for x in spec if x != g)
+            trial = drop_inputs(net, new_spec)
+            nets[g], rt = self._train(f"drop-{g}", dict(trial.arch), new_spec, per, trial.state_dict())
+            deltas[g] = control - rt["val_psnr"]
+            good = deltas[g] <= cfg.drop_tol
+            row(g, new_spec, rt, deltas[g], "can go" if good else "kept")
+            self.log(f"inputs: without {g}: val {rt['val_psnr']:.2f} dB ({-deltas[g]:+.2f} dB vs control) -> "
+                     + ("can go" if good else "kept"))
+            if good:
+                ok.append(g)
+        if not ok:
+            return ctrl_net, spec, control
+        new_spec = tuple(x for x in spec if x not in ok)
+        if len(ok) > 1:  # together they may cost more than each alone
+            trial = drop_inputs(net, new_spec)
+            tnet, rt = self._train("drop-" + "+".join(ok), dict(trial.arch), new_spec, per, trial.state_dict())
+            delta = control - rt["val_psnr"]
+            good = delta <= cfg.drop_tol
+            row(" + ".join(ok), new_spec, rt, delta, "dropped together" if good else "too much together")
+            self.log(f"inputs: without {' + '.join(ok)}: val {rt['val_psnr']:.2f} dB ({-delta:+.2f} dB) -> "
+                     + ("dropped" if good else "too much together; dropping only the cheapest"))
+            if good:
+                self._mark_dropped(ok)
+                return tnet, new_spec, control
+            ok = [min(ok, key=lambda g: deltas[g])]
+            new_spec = tuple(x for x in spec if x not in ok)
+        self._mark_dropped(ok)
+        return nets[ok[0]], new_spec, control
+
+    def _mark_dropped(self, groups):
+        for r in self.rows:
+            if r.get("phase") == "inputs" and r.get("group") in groups:
+                r["decision"] = "dropped"
+
+    def _finish(self, net, generic, chosen, reached, control, polish) -> dict:
+        cfg = self.cfg
+        self.phase = "report"
+        spec = tuple(net.arch["inputs"])
+        ms = self._ms(net)
+        big = None
+        if cfg.bench_size:
+            w, h = bench._parse_size(cfg.bench_size)
+            big = (h, w)
+        ms_big = self._ms(net, big, 2) if big else None
+        if generic:  # time both again, alternating, so that both see the same load on the shared cores
+            generic["ms_big"] = self._ms(generic["net"], big, 2) if big else None
+            for _ in range(2):
+                generic["ms"] = min(generic["ms"], self._ms(generic["net"]))
+                ms = min(ms, self._ms(net))
+                if big:
+                    generic["ms_big"] = min(generic["ms_big"], self._ms(generic["net"], big, 2))
+                    ms_big = min(ms_big, self._ms(net, big, 2))
+        final = dict(arch=_arch_label(net.arch), variant=net.arch["variant"], inputs=list(spec),
+                     passes=list(ch.required_passes(spec)), params=network.count_params(net),
+                     macs_per_px=_f(network.macs_per_pixel(net)), ms=ms, ms_big=ms_big, bench_size=cfg.bench_size,
+                     val=self._score(net, self.val_keys), test=self._score(net, self.test_keys),
+                     test_node=self._score_node(net, self.test_keys))
+        gen = None
+        if generic:
+            generic["test_node"] = self._score_node(generic["net"], self.test_keys)
+            gen = {k: generic.get(k) for k in ("path", "params", "macs", "val", "test", "test_node", "ms", "ms_big")}
+            gen["arch"] = _arch_label(generic["arch"])
+            gen["inputs"] = list(generic["arch"]["inputs"])
+            gen["passes"] = list(ch.required_passes(tuple(generic["arch"]["inputs"])))
+        verdict = self._verdict(final, gen)
+        report = dict(target_psnr=self.target, target_reached=reached, minutes=_f(self.budget.used / 60),
+                      budget_minutes=cfg.minutes, views=dict(train=self.train_keys, val=self.val_keys, test=self.test_keys,
+                                                              size=[self.views.size[1], self.views.size[0]],
+                                                              skipped=dict(self.views.skipped)),
+                      drop_tol=cfg.drop_tol, chosen_size=chosen["name"], control_val_psnr=control, polish=polish,
+                      rows=[_plain(r) for r in self.rows], final=_plain(final), generic=_plain(gen), verdict=verdict,
+                      data=str(Path(cfg.data).resolve()), command=cfg.command)
+        best = dict(val_psnr=final["val"].get("psnr"), val_tm_psnr=final["val"].get("tm_psnr"),
+                    test_psnr=final["test"].get("psnr"), test_node_psnr=(final["test_node"] or {}).get("psnr"))
+        ident = dict(path=str(self.views.root.resolve()), manifest_sha256=data.manifest_sha256(self.views.root),
+                     n_samples=len(self.views.raw), settings=self.views.manifest.get("settings", {}),
+                     split=dict(by="view", train=self.train_keys, val=self.val_keys, test=self.test_keys))
+        ck = checkpoint.make(net, "network", history=[], best=best, dataset=ident, command=cfg.command,
+                             extra=dict(fit=report))
+        ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}
+        checkpoint.save(self.out, ck)
+        jpath, mpath = report_paths(self.out)
+        _atomic_write(jpath, json.dumps(report, indent=1))
+        _atomic_write(mpath, report_markdown(report, self.out))
+        self.log(f"wrote {self.out} (inputs {ch.format_spec(spec)}), {jpath.name}, {mpath.name}")
+        self.log(verdict)
+        self._report("done", verdict)
+        return dict(status="done", model=str(self.out), report=str(jpath), report_md=str(mpath), inputs=list(spec),
+                    passes=final["passes"], final=_plain(final), generic=_plain(gen), target_psnr=self.target,
+                    target_reached=reached, verdict=verdict, minutes=report["minutes"], rows=report["rows"])
+
+    def _verdict(self, final, gen) -> str:
+        # judged on the held-out test views as the node shows them (Predictor.predict); val (raw network
+        # output) only when there are no test views
+        which = "test_node" if final.get("test_node") else "val"
+        fv = final[which].get("psnr")
+        if gen is None:
+            return f"fitted model: {which} PSNR {fv:.2f} dB, {final['ms']:.1f} ms per view (no generic model to compare with)"
+        gv = gen[which].get("psnr")
+        gain = fv - gv
+        key = "ms_big" if final.get("ms_big") and gen.get("ms_big") else "ms"
+        at = final["bench_size"] if key == "ms_big" else f"{self.views.size[1]}x{self.views.size[0]}"
+        ratio = final[key] / gen[key] if gen[key] else math.nan
+        label = "test, as the node shows it" if which == "test_node" else "val"
+        s = (f"held-out ({label}) PSNR {fv:.2f} dB vs generic {gv:.2f} dB ({gain:+.2f} dB), prediction at {at} "
+             f"{final[key]:.1f} ms vs {gen[key]:.1f} ms ({ratio:.2f}x)")
+        if gain >= TARGET_GAIN_DB and ratio <= 0.5:
+            return "the scene gains: " + s
+        why = []
+        if gain < TARGET_GAIN_DB:
+            why.append(f"less than {TARGET_GAIN_DB:g} dB better")
+        if not ratio <= 0.5:
+            why.append("not at most half the prediction time")
+        return f"the scene does not gain enough ({' and '.join(why)}): " + s
+
+
+def _plain(x):
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items() if k != "net"}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return _f(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    return x
+
+
+def report_paths(model) -> tuple[Path, Path]:
+    m = Path(model)
+    return m.with_name(m.stem + ".fit_report.json"), m.with_name(m.stem + ".fit_report.md")
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _n(v, fmt="{:.2f}"):
+    return "-" if v is None else fmt.format(v)
+
+
+def report_markdown(rep: dict, model) -> str:
+    L = [f"# Fit report: {Path(model).name}", "", f"**{rep['verdict']}**", "",
+         f"Views {rep['views']['size'][0]}x{rep['views']['size'][1]}: {len(rep['views']['train'])} train, "
+         f"{len(rep['views']['val'])} val (choose), {len(rep['views']['test'])} test (judge). "
+         f"Target {rep['target_psnr']:.2f} dB val PSNR ({'reached' if rep['target_reached'] else 'NOT reached'}). "
+         f"Fit took {rep['minutes']:.2f} of {rep['budget_minutes']:g} min.", "",
+         "## Size search (smallest first)", "",
+         "| size | architecture | start | params | MACs/px | predict ms | val PSNR | trained s | decision |",
+         "|---|---|---|---:|---:|---:|---:|---:|---|"]
+    for r in rep["rows"]:
+        if r["phase"] == "size":
+            L.append(f"| {r['name']} | {r['arch']} | {r['start']} | {r['params']:,} | {_n(r.get('macs_per_px'), '{:.0f}')} | "
+                     f"{_n(r.get('ms'), '{:.1f}')} | {_n(r.get('val_psnr'))} | {_n(r.get('seconds'), '{:.0f}')} | {r['decision']} |")
+    L += ["", f"## Inputs (drop when val PSNR falls by at most {rep['drop_tol']:g} dB against the control)", "",
+          "| without | inputs | passes rendered | val PSNR | change dB | decision |", "|---|---|---|---:|---:|---|"]
+    for r in rep["rows"]:
+        if r["phase"] == "inputs":
+            d = r.get("delta_db")
+            L.append(f"| {r['group']} | {r.get('spec') or '-'} | {', '.join(p.replace('use_pass_', '') for p in r.get('passes', [])) or '-'} | "
+                     f"{_n(r.get('val_psnr'))} | {_n(None if d is None else -d, '{:+.2f}')} | {r['decision']} |")
+    f, g = rep["final"], rep.get("generic")
+    big = f.get("bench_size") or "-"
+    L += ["", "## Result", "", "Test columns: the held-out views as the SSGI node shows them (Predictor.predict: "
+          "output bound, 0 where the albedo is black); \"raw\" is the network output, as validation scores it.", "",
+          f"| model | inputs | params | predict ms (views' size) | predict ms ({big}) | val PSNR (raw) | "
+          "test PSNR (raw) | test PSNR | test PSNR (tonemapped) | test SSIM |",
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, m in (("fitted", f), ("generic", g)):
+        if m:
+            tn = m.get("test_node") or {}
+            L.append(f"| {name} ({m['arch']}) | {','.join(m['inputs'])} | {m['params']:,} | {_n(m['ms'], '{:.1f}')} | "
+                     f"{_n(m.get('ms_big'), '{:.1f}')} | {_n(m['val'].get('psnr'))} | {_n(m['test'].get('psnr'))} | "
+                     f"{_n(tn.get('psnr'))} | {_n(tn.get('tm_psnr'))} | {_n(tn.get('ssim'), '{:.3f}')} |")
+    if rep.get("polish"):
+        p = rep["polish"]
+        L += ["", f"Polish (the kept network, kept inputs, the rest of the budget): val {_n(p['before'])} -> "
+              f"{_n(p['after'])} dB in {_n(p['seconds'], '{:.0f}')} s of training."]
+    L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]
+    return "\n".join(L)
+
+
+def fit(cfg: FitConfig, log=None, callback=None, should_stop=None) -> dict:
+    return Fitter(cfg, log=log, callback=callback, should_stop=should_stop).run()
+
+
+def split_views(keys_by_camera: dict[str, list[str]], test_cameras=(), val_cameras=()) -> tuple[list, list, list]:
+    """(train, val, test) sample keys: the views of ``val_cameras`` / ``test_cameras`` are held out whole."""
+    tr, va, te = [], [], []
+    for cam, keys in keys_by_camera.items():
+        (te if cam in test_cameras else va if cam in val_cameras else tr).extend(map(str, keys))
+    return sorted(tr), sorted(va), sorted(te)

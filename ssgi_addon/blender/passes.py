@@ -1,0 +1,430 @@
+"""Rendering passes into numpy: EEVEE's direct-only G-buffer, and Cycles (reference or diffuse direct).
+
+Contract (used by the baker and the compositor node):
+
+- ``configure_gbuffer(scene, groups)`` enables the view-layer passes that ``groups`` need and sets EEVEE up for
+  direct light only (no ray tracing, no fast GI, light threshold 0, lights' custom distance large).
+- ``render_gbuffer(scene, groups=None) -> {group: HxWxC float32}``: renders EEVEE with a world that lights
+  nothing (camera rays still see it, so the Combined pass keeps the sky), light probes hidden and hard lights
+  (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
+  afterwards, and returns the groups top row first with normals in CAMERA space.
+- ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
+  or with hard lights and point-sampled pixels (to check EEVEE's 1-sample Diffuse Direct pass against Cycles').
+
+Pixels are read by saving the render result as a multilayer EXR (the only way that works in background mode,
+see docs/bake.md) and reading every part with OpenEXR.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+import time
+
+import bpy
+import numpy as np
+
+from ...model import channels as ch
+from ...model.errors import UserError
+
+# group -> (Blender render pass name, channel suffixes in the EXR part)
+PASS_NAMES: dict[str, str] = {
+    "albedo": "Diffuse Color",
+    "normal": "Normal",
+    "depth": "Depth",
+    "direct": "Diffuse Direct",
+    "ao": "Ambient Occlusion",
+    "world": "Diffuse Direct",  # of a second render: lights hidden, the world lighting
+    "eevee": "Combined",
+    "ref": "Combined",
+}
+EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee")
+AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
+# Lights' custom cutoff distance (m), needed with light threshold 0 (without a custom distance EEVEE then culls
+# every light: measured black). Not larger: with 1e4, EEVEE lost most cast shadows (its shadow maps use this
+# as their far clip) and Diffuse Direct was 0.54-1.09x Cycles'; 20-1000 m all matched (docs/bake.md).
+CUTOFF_DISTANCE = 1000.0
+DIFFUSE_BOUNCES = 8
+# Cycles' pixel filter width (px) for the hard-light comparison. EEVEE's single sample is a point sample at the
+# pixel centre (its filter size changes nothing at 1 sample: measured bit-identical at 0.01 and 1.5 px), while
+# Cycles' default 1.5 px filter anti-aliases: thin bright edges (a cylinder's top seen edge-on) then differ by
+# 10 % and room 13's total by 1.6 %. Point-sampled, 13 closed rooms agree within 0.5 % (docs/bake.md).
+POINT_SAMPLE_FILTER_PX = 0.01
+
+
+def _check_camera(scene) -> None:
+    if scene.camera is None:
+        raise UserError(f"scene {scene.name!r} has no camera")
+
+
+def configure_gbuffer(scene, groups=None, samples: int = 1) -> None:
+    """Enable the passes ``groups`` need and EEVEE's direct-only settings (persistent settings of ``scene``)."""
+    groups = tuple(groups) if groups is not None else EEVEE_GROUPS
+    scene.render.engine = "BLENDER_EEVEE"
+    ee = scene.eevee
+    ee.taa_render_samples = int(samples)
+    ee.use_raytracing = False
+    ee.use_fast_gi = False
+    ee.light_threshold = 0.0
+    ee.use_shadows = True
+    vl = scene.view_layers[0]
+    for g in groups:
+        flag = ch.GROUPS[g].blender_pass
+        if flag:
+            setattr(vl, flag, True)
+    for li in {o.data for o in scene.objects if o.type == "LIGHT"}:
+        li.use_custom_distance = True
+        li.cutoff_distance = CUTOFF_DISTANCE
+
+
+@contextlib.contextmanager
+def hard_lights(scene):
+    """Point/spot radius 0, sun angle 0, area lights ~1 cm keeping their aspect; restored on exit."""
+    saved = []
+    lights: dict = {}
+    for o in scene.objects:
+        if o.type == "LIGHT":
+            lights.setdefault(o.data, []).append(max(abs(s) for s in o.matrix_world.to_scale()))
+    try:
+        for li, scales in lights.items():
+            if li.type in ("POINT", "SPOT"):
+                saved.append((li, "shadow_soft_size", li.shadow_soft_size))
+                li.shadow_soft_size = 0.0
+            elif li.type == "SUN":
+                saved.append((li, "angle", li.angle))
+                li.angle = 0.0
+            elif li.type == "AREA":
+                saved.append((li, "size", li.size))
+                saved.append((li, "size_y", li.size_y))
+                big = max(li.size, li.size_y if li.shape in ("RECTANGLE", "ELLIPSE") else li.size, 1e-9)
+                f = AREA_LIGHT_SIZE / (big * max(scales))
+                li.size, li.size_y = li.size * f, li.size_y * f
+        yield
+    finally:
+        for li, attr, v in reversed(saved):
+            setattr(li, attr, v)
+
+
+def _black_world(name: str):
+    w = bpy.data.worlds.new(name)
+    w.color = (0.0, 0.0, 0.0)
+    if w.node_tree is not None:
+        for n in w.node_tree.nodes:
+            if n.bl_idname == "ShaderNodeBackground":
+                n.inputs["Strength"].default_value = 0.0
+    return w
+
+
+def _camera_only_world(world, name: str):
+    """A copy of ``world`` that camera rays see as before and that lights nothing: its output shader goes
+    through Mix Shader(Light Path "Is Camera Ray": nothing, the world). None when ``world`` has no shader."""
+    copy = world.copy()
+    copy.name = name
+    nt = copy.node_tree
+    out = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output), None) \
+        if nt is not None else None
+    if out is None or not out.inputs["Surface"].links:
+        bpy.data.worlds.remove(copy)
+        return None
+    src = out.inputs["Surface"].links[0].from_socket
+    path = nt.nodes.new("ShaderNodeLightPath")
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    nt.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    nt.links.new(src, mix.inputs[2])  # input 1 (Fac 0) stays empty: no light
+    nt.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+    return copy
+
+
+# the world during the G-buffer render, recorded in the manifest settings (eevee.world)
+WORLD_MODE = "camera_rays_only"  # "black" before the sky fix: then sky pixels of `eevee` were black
+
+
+@contextlib.contextmanager
+def _direct_only_world(scene, keep_sky: bool = False):
+    """A world that lights nothing, and hidden light probes (EEVEE's Diffuse Direct includes world light
+    otherwise). With ``keep_sky`` camera rays still see the scene's world, so that the Combined pass keeps the
+    artist's background where nothing is hit; else the world is black."""
+    old_world = scene.world
+    tmp = None
+    if keep_sky and old_world is not None:
+        tmp = _camera_only_world(old_world, "ssgi.camera_only_world")
+    if tmp is None:
+        tmp = _black_world("ssgi.black_world")
+    try:
+        scene.world = tmp
+        with _hidden_from_render(scene, ("LIGHT_PROBE",)):
+            yield
+    finally:
+        scene.world = old_world
+        bpy.data.worlds.remove(tmp)
+
+
+@contextlib.contextmanager
+def _hidden_from_render(scene, types: tuple[str, ...]):
+    """The objects of ``types`` that render are hidden from the render; shown again on exit."""
+    hidden = [o for o in scene.objects if o.type in types and not o.hide_render]
+    try:
+        for o in hidden:
+            o.hide_render = True
+        yield
+    finally:
+        for o in hidden:
+            o.hide_render = False
+
+
+@contextlib.contextmanager
+def _point_sampled(scene):
+    """Cycles' pixel filter narrowed to a point at the pixel centre; restored on exit."""
+    saved = scene.cycles.filter_width
+    try:
+        scene.cycles.filter_width = POINT_SAMPLE_FILTER_PX
+        yield
+    finally:
+        scene.cycles.filter_width = saved
+
+
+@contextlib.contextmanager
+def _exr_output(scene):
+    r = scene.render
+    ims = r.image_settings
+    saved = (ims.media_type, ims.file_format, ims.color_depth, ims.exr_codec, r.use_compositing, r.use_sequencer)
+    try:
+        ims.media_type = "MULTI_LAYER_IMAGE"
+        ims.file_format = "OPEN_EXR_MULTILAYER"
+        ims.color_depth = "32"
+        ims.exr_codec = "ZIP"
+        r.use_compositing = False
+        r.use_sequencer = False
+        yield
+    finally:
+        ims.media_type = saved[0]
+        with contextlib.suppress(TypeError):
+            ims.file_format = saved[1]
+        with contextlib.suppress(TypeError):
+            ims.color_depth = saved[2]
+        with contextlib.suppress(TypeError):
+            ims.exr_codec = saved[3]
+        r.use_compositing, r.use_sequencer = saved[4], saved[5]
+
+
+def read_multilayer(path) -> dict[str, dict[str, np.ndarray]]:
+    """{pass name: {channel: HxW float32}} of a Blender multilayer (multi-part) EXR, top row first."""
+    import OpenEXR
+
+    out: dict[str, dict[str, np.ndarray]] = {}
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        for part in f.parts:
+            pname = part.name() if callable(part.name) else part.name
+            for name, c in part.channels.items():
+                # part "ViewLayer.Diffuse Direct" with channel "R" (or one part with "ViewLayer.Diffuse Direct.R")
+                full = f"{pname}.{name}" if pname and not name.startswith(f"{pname}.") else name
+                layer_pass, _, comp = full.rpartition(".")
+                pass_name = layer_pass.split(".", 1)[1] if "." in layer_pass else layer_pass
+                out.setdefault(pass_name, {})[comp] = np.asarray(c.pixels, dtype=np.float32)
+    return out
+
+
+STALE_TEMP_S = 600.0  # a leftover temporary render file is removed when its process is gone and it is this old
+_swept = False
+
+
+def remove_stale_temp_files(folder=None, min_age_s: float = STALE_TEMP_S) -> list[str]:
+    """Remove ``ssgi-render-PID-*.exr`` / ``ssgi-passes-PID-*.exr`` files that a killed process left in the
+    temporary folder: only when process PID is gone and the file is older than ``min_age_s`` (a process in
+    another pid namespace sharing the folder cannot lose a file in use). Returns the removed names."""
+    import re
+    folder = folder or tempfile.gettempdir()
+    removed = []
+    pat = re.compile(r"^ssgi-(?:render|passes)-(\d+)-[^/]*\.exr$")
+    now = time.time()
+    for name in os.listdir(folder):
+        m = pat.match(name)
+        if not m or int(m.group(1)) == os.getpid():
+            continue
+        try:
+            os.kill(int(m.group(1)), 0)
+            continue  # the process lives
+        except ProcessLookupError:
+            pass
+        except (PermissionError, OverflowError):
+            continue
+        path = os.path.join(folder, name)
+        with contextlib.suppress(OSError):
+            if now - os.stat(path).st_mtime >= min_age_s and os.path.isfile(path):
+                os.unlink(path)
+                removed.append(name)
+    return removed
+
+
+def _render(scene) -> dict[str, dict[str, np.ndarray]]:
+    global _swept
+    _check_camera(scene)
+    if not _swept:
+        _swept = True
+        remove_stale_temp_files()
+    path = None
+    try:
+        with _exr_output(scene):
+            vl = scene.view_layers[0]
+            bpy.ops.render.render(scene=scene.name, layer=vl.name)
+            img = bpy.data.images.get("Render Result")
+            if img is None:
+                raise RuntimeError("render produced no Render Result")
+            # the temporary file exists only for the save and the read, not during the (long) render, so a
+            # process killed while rendering leaves nothing behind (docs/hard_cases.md)
+            fd, path = tempfile.mkstemp(prefix=f"ssgi-render-{os.getpid()}-", suffix=".exr")
+            os.close(fd)
+            try:
+                img.save_render(path, scene=scene)
+                # A failed write (a full disk) does not raise: Blender logs "IMB_exr_write_channels: Failed to
+                # write pixel data" and leaves the file empty or cut short, which the read finds.
+                return read_multilayer(path)
+            except RuntimeError as e:
+                raise OSError(f"{path}: Blender could not save the render in the temporary folder "
+                              f"{tempfile.gettempdir()} (is the disk full? Blender's log above says why): {e}") from None
+    finally:
+        if path is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+
+
+def _group(passes: dict, group: str) -> np.ndarray:
+    name = PASS_NAMES[group]
+    if name not in passes:
+        raise RuntimeError(f"render has no {name!r} pass for group {group!r}; passes: {sorted(passes)}")
+    p = passes[name]
+    comps = ch.GROUPS[group].components
+    if group == "ao" and "Y" not in p:  # AO is stored as RGB grey; keep one channel
+        comps = ("R",)
+    if group == "depth" and "Z" not in p:
+        comps = ("V",) if "V" in p else (sorted(p)[0],)
+    return np.stack([p[c] for c in comps], axis=-1).astype(np.float32)
+
+
+def camera_rotation(scene) -> np.ndarray:
+    """3x3 rotation of the scene camera (columns: camera X, Y, Z axes in world space)."""
+    m = scene.camera.matrix_world.to_3x3().normalized()
+    return np.array([[m[i][j] for j in range(3)] for i in range(3)], dtype=np.float64)
+
+
+def world_to_camera_normals(n: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """World-space normals HxWx3 to camera space (+X right, +Y up, +Z towards the camera); zeros stay zero."""
+    return np.einsum("hwi,ij->hwj", n.astype(np.float64), rot).astype(np.float32)
+
+
+def world_is_black(world) -> bool:
+    """True when ``world`` certainly lights nothing: no world, or a plain Background (colour and strength not
+    driven by other nodes) of strength 0 or black colour. Then the world pass is all zeros without a render."""
+    if world is None:
+        return True
+    nt = world.node_tree if getattr(world, "use_nodes", True) else None
+    if nt is None:
+        return max(world.color) <= 0.0
+    out = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output), None)
+    if out is None or not out.inputs["Surface"].links:
+        return True
+    src = out.inputs["Surface"].links[0].from_node
+    if src.bl_idname != "ShaderNodeBackground":
+        return False
+    col, strength = src.inputs["Color"], src.inputs["Strength"]
+    if not strength.links and strength.default_value <= 0.0:
+        return True
+    return not col.links and max(col.default_value[:3]) <= 0.0
+
+
+# how the `world` group is rendered, recorded in the manifest settings (eevee.world_group)
+WORLD_GROUP_MODE = "diffuse_direct_lights_and_probes_hidden"
+
+
+def render_world(scene, samples: int = 1) -> np.ndarray:
+    """The ``world`` group: EEVEE's Diffuse Direct pass with the lights hidden, i.e. the world's light on each
+    surface without occlusion (EEVEE lights the diffuse direct pass from the world probe, unshadowed; measured
+    in docs/bake.md). HxWx3 float32, 0 where nothing is hit. A world that lights nothing (``world_is_black``)
+    costs no render."""
+    _check_camera(scene)
+    if world_is_black(scene.world):
+        r = scene.render
+        h = int(r.resolution_y * r.resolution_percentage / 100)
+        w = int(r.resolution_x * r.resolution_percentage / 100)
+        return np.zeros((h, w, 3), np.float32)
+    configure_gbuffer(scene, ("direct",), samples=samples)
+    with _hidden_from_render(scene, ("LIGHT", "LIGHT_PROBE")):  # the scene's world as it is
+        passes = _render(scene)
+    return _group(passes, "world")[..., :3]
+
+
+def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True) -> dict[str, np.ndarray]:
+    """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
+    The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
+    hit (tests/test_bake.py checks that Diffuse Direct is the same either way)."""
+    groups = tuple(groups) if groups is not None else EEVEE_GROUPS
+    for g in groups:
+        if g not in EEVEE_GROUPS:
+            raise ValueError(f"group {g!r} is not rendered by EEVEE; EEVEE groups: {EEVEE_GROUPS}")
+    _check_camera(scene)
+    raster = tuple(g for g in groups if g != "world")
+    out = {}
+    if "world" in groups:  # first: the Render Result left behind is the G-buffer render (render.py saves it)
+        out["world"] = render_world(scene, samples=samples)
+    if raster:
+        configure_gbuffer(scene, raster, samples=samples)
+        with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
+            passes = _render(scene)
+        out.update({g: _group(passes, g) for g in raster})
+    out = {g: out[g] for g in groups}
+    if "normal" in out:
+        out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
+    return out
+
+
+def configure_cycles(scene, samples: int, seed: int = 0, denoise: bool = False, threads: int = 0) -> None:
+    c = scene.cycles
+    scene.render.engine = "CYCLES"
+    c.device = "CPU"
+    c.samples = int(samples)
+    c.use_adaptive_sampling = False
+    c.seed = int(seed)
+    c.use_animated_seed = False
+    c.diffuse_bounces = max(DIFFUSE_BOUNCES, c.diffuse_bounces)
+    c.max_bounces = max(c.max_bounces, c.diffuse_bounces)
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.use_denoising = bool(denoise)
+    if denoise:
+        c.denoiser = "OPENIMAGEDENOISE"
+        c.denoising_input_passes = "RGB_ALBEDO_NORMAL"
+    scene.render.threads_mode = "FIXED" if threads else "AUTO"
+    if threads:
+        scene.render.threads = threads
+
+
+def render_cycles(scene, samples: int, seed: int = 0, denoise: bool = False, hard: bool = False,
+                  groups=("ref",), threads: int = 0) -> dict[str, np.ndarray]:
+    """Render Cycles. ``groups`` may hold "ref" (Combined RGB) and "direct" (Diffuse Direct). With ``hard``,
+    the lights are shrunk as for EEVEE, the world is black and the pixels are point samples at their centres,
+    as EEVEE's 1-sample G-buffer is (to compare with EEVEE's Diffuse Direct)."""
+    _check_camera(scene)
+    configure_cycles(scene, samples, seed, denoise, threads)
+    vl = scene.view_layers[0]
+    if "direct" in groups:
+        vl.use_pass_diffuse_direct = True
+    ctx = contextlib.ExitStack()
+    with ctx:
+        if hard:
+            ctx.enter_context(_direct_only_world(scene))
+            ctx.enter_context(hard_lights(scene))
+            ctx.enter_context(_point_sampled(scene))
+        passes = _render(scene)
+    return {g: _group(passes, g)[..., :3] for g in groups}
+
+
+def set_resolution(scene, width: int, height: int) -> None:
+    scene.render.resolution_x, scene.render.resolution_y = int(width), int(height)
+    scene.render.resolution_percentage = 100
+    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
+
+
+def timed(fn, *a, **kw):
+    t = time.perf_counter()
+    r = fn(*a, **kw)
+    return r, time.perf_counter() - t

@@ -1,0 +1,148 @@
+"""Subcommands ``train``, ``baseline``, ``predict`` and ``bench`` (torch is imported inside ``run``)."""
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+
+
+def _command() -> str:
+    return " ".join(shlex.quote(a) for a in [sys.executable] + sys.argv)
+
+
+def _arch_overrides(text: str | None) -> dict:
+    from ...model.errors import UserError
+    if not text:
+        return {}
+    try:
+        d = json.loads(text)
+    except ValueError as e:
+        raise UserError(f"--arch must be a JSON object such as '{{\"width\": 32}}' ({e})") from None
+    if not isinstance(d, dict):
+        raise UserError("--arch must be a JSON object such as '{\"width\": 32}'")
+    return d
+
+
+def run_train(args) -> dict:
+    from ...model.learn.train import TrainConfig, Trainer
+    from tqdm import tqdm
+
+    cfg = TrainConfig(data=args.data, out=args.out, variant=args.variant, inputs=args.inputs,
+                      arch=_arch_overrides(args.arch), minutes=args.minutes, epochs=args.epochs, resume=args.resume,
+                      optimizer=args.optimizer, lr=args.lr, clip=args.clip, batch=args.batch, crop=args.crop,
+                      crops_per_image=args.crops_per_image, early_stop=args.early_stop, threads=args.threads,
+                      seed=args.seed, val_fraction=args.val_fraction, command=_command())
+    bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet, bar_format="{l_bar}{bar}| {postfix}")
+
+    def cb(d):
+        bar.n = int(1000 * d["progress"])
+        bar.set_postfix_str(f"ep {d['epoch']} loss {d['loss']:.4f} val {d['val_psnr'] or float('nan'):.2f} dB"
+                            + (f" eta {d['eta_s'] / 60:.1f} min" if d.get("eta_s") is not None else ""))
+
+    try:
+        res = Trainer(cfg, log=(lambda m: bar.write(m, file=sys.stderr))).run(callback=cb)
+    finally:
+        bar.close()
+    return res
+
+
+def run_baseline(args) -> dict:
+    from ...model.learn.baseline import run_baseline as fit
+    return fit(args.data, args.out, inputs=args.inputs, space=args.space, seed=args.seed,
+               val_fraction=args.val_fraction, command=_command())
+
+
+def run_predict(args) -> dict:
+    from ...model.infer.predict import predict_file
+    res = predict_file(args.model, args.input, args.out, png=args.png, threads=args.threads, tile=args.tile)
+    msg = f"wrote {res['out']} ({res['size'][1]}x{res['size'][0]}) in {res['seconds'] * 1000:.0f} ms"
+    if "psnr" in res:
+        msg += f"; PSNR vs ref {res['psnr']:.2f} dB (tm {res['tm_psnr']:.2f}, SSIM {res['ssim']:.3f})"
+    if res["repaired_pixels"]:
+        msg += f"; repaired {res['repaired_pixels']} non-finite input pixel(s)"
+    print(msg, file=sys.stderr)
+    return res
+
+
+def run_bench(args) -> dict:
+    from ...model.infer.bench import bench
+    return bench(variants=args.variants, models=args.models, sizes=args.sizes, threads=args.threads,
+                 repeats=args.repeats, precisions=args.precision, out=args.out)
+
+
+def run_curves(args) -> dict:
+    from ...model.learn.train import compare_png
+    rows = compare_png(args.models, args.out, cpu=args.cpu)
+    for r in rows:
+        print(f"{r['variant']:>10} {r['params'] or 0:>8} params  best val PSNR {r['best_val_psnr']:.2f} dB  "
+              f"after {r['minutes']:.1f} min ({r['epochs']} epochs)  {r['model']}", file=sys.stderr)
+    return dict(out=args.out, rows=rows)
+
+
+def register_cli(sub) -> None:
+    from ...model import channels as ch
+    from ...model.learn import variants
+
+    p = sub.add_parser("train", help="train a network on a baked dataset",
+                       description="Train a network on a dataset folder. MODEL is the best checkpoint so far "
+                                   "(by validation PSNR); MODEL.last.pt beside it is the resume point; "
+                                   "MODEL.curve.png the learning curve.")
+    p.add_argument("--data", required=True, metavar="DIR", help="dataset folder (manifest.json + EXR samples)")
+    p.add_argument("--out", required=True, metavar="MODEL", help="checkpoint to write (e.g. models/ssgi.pt)")
+    p.add_argument("--variant", default=variants.DEFAULT, choices=variants.TRAINABLE,
+                   help=f"network variant (default {variants.DEFAULT})")
+    p.add_argument("--arch", metavar="JSON", help='override variant settings, e.g. \'{"width": 32}\'')
+    p.add_argument("--inputs", default=ch.format_spec(ch.DEFAULT_INPUTS), metavar="SPEC",
+                   help="input groups, comma-separated (default: %(default)s)")
+    p.add_argument("--minutes", type=float, help="time budget in minutes (default 10 when --epochs is not given)")
+    p.add_argument("--epochs", type=int, help="number of epochs")
+    p.add_argument("--resume", action="store_true", help="continue from MODEL.last.pt (same steps, optimizer, RNG)")
+    p.add_argument("--optimizer", default="adam", choices=("adam", "sgd"))
+    p.add_argument("--lr", type=float, help="learning rate (default 1e-3 adam, 1e-2 sgd)")
+    p.add_argument("--clip", type=float, help="gradient-norm clipping (default 1.0 for sgd, off for adam)")
+    p.add_argument("--batch", type=int, default=16, help="crops per batch (default %(default)s)")
+    p.add_argument("--crop", type=int, default=64, help="crop size in pixels (default %(default)s)")
+    p.add_argument("--crops-per-image", type=int, help="crops of each image per epoch (default: image area / crop area)")
+    p.add_argument("--early-stop", type=int, metavar="N", help="stop after N epochs without validation improvement")
+    p.add_argument("--threads", type=int, help="torch threads (default: torch's own, all cores)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--val-fraction", type=float, default=0.2, help="share of scenes for validation (default %(default)s)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run_train)
+
+    p = sub.add_parser("baseline", help="fit the per-pixel linear-regression baseline in closed form")
+    p.add_argument("--data", required=True, metavar="DIR")
+    p.add_argument("--out", required=True, metavar="MODEL")
+    p.add_argument("--inputs", default=ch.format_spec(ch.DEFAULT_INPUTS), metavar="SPEC")
+    p.add_argument("--space", default="linear", choices=("linear", "log"),
+                   help="regress linear RGB (the seed's) or log1p RGB (default %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="split seed (same as train's)")
+    p.add_argument("--val-fraction", type=float, default=0.2)
+    p.set_defaults(func=run_baseline)
+
+    p = sub.add_parser("predict", help="run a model on one sample EXR")
+    p.add_argument("--model", required=True, metavar="M", help="checkpoint (.pt) from train or baseline")
+    p.add_argument("--input", required=True, metavar="SAMPLE.exr", help="a sample EXR holding the model's input groups")
+    p.add_argument("--out", required=True, metavar="OUT.exr", help="prediction as an RGB float EXR (linear HDR)")
+    p.add_argument("--png", metavar="OUT.png", help="also write a tonemapped sRGB preview")
+    p.add_argument("--threads", type=int, help="torch threads")
+    p.add_argument("--tile", type=int, help="tile size for big images (default 1024)")
+    p.set_defaults(func=run_predict)
+
+    p = sub.add_parser("curves", help="plot the learning curves of several models in one PNG")
+    p.add_argument("--models", nargs="+", required=True, metavar="M", help="checkpoints (train or baseline)")
+    p.add_argument("--out", required=True, metavar="PNG")
+    p.add_argument("--cpu", action="store_true", help="x axis: CPU minutes instead of wall minutes (needs cpu_minutes in the history)")
+    p.set_defaults(func=run_curves)
+
+    p = sub.add_parser("bench", help="time prediction of each variant at several sizes",
+                       description="Prints prediction time (median of --repeats) and peak memory per variant and size.")
+    p.add_argument("--variants", nargs="*", default=None, help="variants (default: all trainable)")
+    p.add_argument("--models", nargs="*", default=[], help="checkpoints to time as well")
+    p.add_argument("--sizes", nargs="*", default=["240x135", "960x540", "1920x1080"], help="WxH sizes")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--precision", nargs="*", default=["fp32"], choices=("fp32", "fp32-cl", "bf16-cl"),
+                   help="fp32 (NCHW), fp32-cl (channels_last), bf16-cl (bfloat16 channels_last)")
+    p.add_argument("--out", metavar="JSON", help="also write the numbers to this file")
+    p.set_defaults(func=run_bench)

@@ -1,0 +1,387 @@
+"""Fit to Scene, the Blender side: the views of an artist's scene, their bake, and the background job.
+
+    plan = make_views(scene, views=24, seed=0)        # jittered cameras added to the OPEN file (a copy of it)
+    bpy.ops.wm.save_as_mainfile(filepath=work_blend, copy=True)
+    bake_views(work_blend, data_dir, plan, size)     # `cli.py bake --scenes work_blend --frames ...` (the baker)
+    train, val, test = split_views(data_dir, plan)   # held-out views by camera
+    model.fit.fit(FitConfig(...))                    # size search, input ablation, report (bpy-free)
+
+Views: the scene's own cameras at ``len(frames)`` frames spread over the animation (one frame, the current,
+when nothing is animated), plus jittered cameras: each a real camera object ``ssgi.fit.view_NN`` sharing the
+camera data (lens) of one scene camera and parented to it with a local offset, so that it follows the shot
+and every frame gives a new view: moved by up to ``radius`` (JITTER_FRACTION of the diagonal of the scene's
+mesh bounds; in a random direction at a random frame of the animation, then shortened so that it passes no
+surface there nor at any frame of the plan) and turned by up to JITTER_DEG degrees about the camera's own
+axes. The baker renders every camera at
+every frame, so there are (scene cameras + jittered cameras) x frames views. Whole jittered cameras are held
+out: ``val`` cameras choose (best epoch, size, inputs), ``test`` cameras only judge the result. The scene's
+own cameras are always training views: the point is to fit the shots the artist renders.
+
+The "Fit to Scene" operator runs ``cli.py fit`` in a separate process (EEVEE and Cycles renders of the bake
+must not block Blender's UI, and a GL abort there cannot take Blender down); a worker thread of a jobs.Job
+reads its progress lines (``PROGRESS_PREFIX`` + JSON on stderr) and Cancel terminates it. The thread never
+touches bpy; the main thread sets the scene's model when the job is done.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+from ...model.errors import UserError
+
+JITTER_FRACTION = 0.04  # of the mesh bounds' diagonal
+JITTER_DEG = 8.0
+VIEW_PREFIX = "ssgi.fit.view_"
+PROGRESS_PREFIX = "SSGI_FIT_PROGRESS "
+ROOT = Path(__file__).resolve().parents[2]  # the extension root (cli.py is there)
+JOB = "fit"
+
+
+# ------------------------------------------------------------------------------------------------- views
+
+def view_counts(views: int, n_frames_available: int, n_cameras: int) -> tuple[int, int]:
+    """(frames, jittered cameras) for about ``views`` views: frames ~ sqrt(views / 2) (at most the animation's
+    length), cameras enough for the rest, and at least 3 jittered cameras (one each for val and test)."""
+    if views < 4:
+        raise UserError(f"--views {views}: at least 4 views are needed (training, validation and test views)")
+    nf = max(1, min(n_frames_available, int(round(math.sqrt(views / 2.0)))))
+    n_cams = math.ceil(views / nf)
+    return nf, max(3, n_cams - n_cameras)
+
+
+def roles(n_jitter: int, rng: random.Random) -> list[str]:
+    """Held-out roles of the jittered cameras: ~20 % val, ~20 % test (at least one each), the rest train."""
+    n_val = max(1, round(0.2 * n_jitter))
+    n_test = max(1, round(0.2 * n_jitter))
+    r = ["val"] * n_val + ["test"] * n_test + ["train"] * (n_jitter - n_val - n_test)
+    rng.shuffle(r)
+    return r
+
+
+def _animated(scene) -> bool:
+    return any(o.animation_data is not None and o.animation_data.action is not None for o in scene.objects)
+
+
+def _bounds_diagonal(scene) -> float:
+    from mathutils import Vector
+    lo, hi = [math.inf] * 3, [-math.inf] * 3
+    for o in scene.objects:
+        if o.type != "MESH" or o.hide_render:
+            continue
+        for c in o.bound_box:
+            w = o.matrix_world @ Vector(c)
+            for i in range(3):
+                lo[i], hi[i] = min(lo[i], w[i]), max(hi[i], w[i])
+    if not math.isfinite(lo[0]):
+        return 1.0
+    return math.dist(lo, hi)
+
+
+def _free_offset(scene, depsgraph, origin, offset):
+    """``offset`` shortened to half the distance to the first surface along it (the camera stays in free space)."""
+    d = offset.length
+    if d <= 0:
+        return offset
+    hit, loc, *_ = scene.ray_cast(depsgraph, origin, offset.normalized(), distance=d * 2.0)
+    if hit:
+        free = (loc - origin).length
+        if free < d * 2.0:
+            return offset.normalized() * min(d, 0.5 * free)
+    return offset
+
+
+def make_views(scene, views: int = 24, seed: int = 0) -> dict:
+    """Add the jittered cameras to ``scene`` (of a file that will be saved as a copy) and return the plan:
+    frames, and each camera's role (train / val / test)."""
+    from mathutils import Euler, Vector
+
+    cams = [o for o in scene.objects if o.type == "CAMERA"]
+    if not cams:
+        raise UserError(f"scene {scene.name!r} has no camera: add the camera(s) you render with")
+    if scene.camera in cams:  # the active camera first
+        cams.remove(scene.camera)
+        cams.insert(0, scene.camera)
+    rng = random.Random(seed)
+    f0, f1 = scene.frame_start, scene.frame_end
+    anim = _animated(scene) and f1 > f0
+    avail = (f1 - f0 + 1) if anim else 1
+    nf, n_jit = view_counts(views, avail, len(cams))
+    if anim:
+        frames = sorted({f0 + (f1 - f0) * i // max(1, nf - 1) for i in range(nf)}) if nf > 1 else [(f0 + f1) // 2]
+    else:
+        frames = [scene.frame_current]
+    radius = JITTER_FRACTION * _bounds_diagonal(scene)
+    current = scene.frame_current
+    plan = dict(scene=scene.name, frames=frames, radius=radius, max_turn_deg=JITTER_DEG, seed=seed,
+                cameras={c.name: "train" for c in cams}, views=views)
+    for j, role in enumerate(roles(n_jit, rng)):
+        base = cams[j % len(cams)]
+        chosen = rng.randint(f0, f1) if anim else current
+        scene.frame_set(chosen)
+        m = base.matrix_world.copy()
+        origin = m.to_translation()
+        direction = Vector([rng.gauss(0, 1) for _ in range(3)])
+        if direction.length < 1e-9:
+            direction = Vector((1.0, 0.0, 0.0))
+        offset = direction.normalized() * radius * rng.uniform(0.4, 1.0)
+        turn = Euler((math.radians(rng.uniform(-JITTER_DEG, JITTER_DEG)),
+                      math.radians(rng.uniform(-JITTER_DEG, JITTER_DEG)), 0.0), "XYZ").to_matrix().to_4x4()
+        # the move in the camera's own frame: the jittered camera follows its base camera (parented), so every
+        # frame of the plan gives a new view; the move is shortened so that it passes no surface at the chosen
+        # frame nor at any frame the baker renders
+        local_t = m.inverted_safe().to_3x3() @ offset
+        for f in [chosen] + [f for f in frames if f != chosen]:
+            scene.frame_set(f)
+            mf = base.matrix_world
+            world_t = mf.to_3x3() @ local_t
+            free = _free_offset(scene, bpy_context_depsgraph(), mf.to_translation(), world_t)
+            if world_t.length > 0 and free.length < world_t.length:
+                local_t = local_t * (free.length / world_t.length)
+        local = turn.copy()  # turn about the camera's own axes
+        local.translation = local_t
+        import bpy
+        obj = bpy.data.objects.new(f"{VIEW_PREFIX}{j:02d}", base.data)
+        scene.collection.objects.link(obj)
+        obj.parent = base
+        obj.matrix_parent_inverse.identity()
+        obj.matrix_basis = local  # world = base's world matrix @ local, at every frame
+        obj["ssgi_fit_role"] = role
+        obj["ssgi_fit_from"] = base.name
+        obj["ssgi_fit_frame"] = chosen
+        plan["cameras"][obj.name] = role
+    scene.frame_set(current)
+    return plan
+
+
+def bpy_context_depsgraph():
+    import bpy
+    return bpy.context.evaluated_depsgraph_get()
+
+
+def default_size(scene, width: int = 240) -> tuple[int, int]:
+    """The views' size: ``width`` wide (never wider than the scene renders) at the scene's aspect ratio."""
+    r = scene.render
+    width = max(8, min(width, int(r.resolution_x * r.resolution_percentage / 100)))
+    aspect = (r.resolution_y * r.pixel_aspect_y) / max(1e-9, r.resolution_x * r.pixel_aspect_x)
+    return width, max(8, int(round(width * aspect)))
+
+
+# ------------------------------------------------------------------------------------------------- bake
+
+def cli_command(*args: str) -> list[str]:
+    """The command line that runs ``cli.py ARGS`` the way this process runs: the bpy module's Python, or the
+    Blender binary in the background."""
+    import bpy
+    cli = str(ROOT / "cli.py")
+    if getattr(bpy.app, "module", True):
+        return [sys.executable, cli, *args]
+    return [bpy.app.binary_path, "--background", "--factory-startup", "--python", cli, "--", *args]
+
+
+# The views' references: 16 spp + OIDN, not the baker's default (raw, up to 4096 spp), to keep the whole fit
+# within its 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the
+# fitted models' error (25-35 dB).
+FIT_REF_SAMPLES = 16
+
+
+def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None) -> None:
+    """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
+    a child process (the baker resumes a half-done folder)."""
+    cmd = cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
+                      "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
+    cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
+    (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_child_env(),
+                       preexec_fn=_die_with_parent)
+    if p.returncode != 0:
+        tail = "\n".join(l for l in p.stderr.splitlines() if "EGL" not in l)[-1500:]
+        raise UserError(f"baking the views failed (exit {p.returncode}): {tail.strip() or p.stdout[-500:]}")
+
+
+def _die_with_parent() -> None:
+    """In the baker's process: end it (SIGTERM) when the fit process dies, even by SIGKILL (Linux prctl
+    PR_SET_PDEATHSIG), so a killed fit leaves no baker running."""
+    try:
+        import ctypes
+        ctypes.CDLL(None).prctl(1, signal.SIGTERM)
+    except (OSError, AttributeError):
+        pass
+
+
+def _child_env() -> dict:
+    env = dict(os.environ)
+    try:
+        from ..runtime import deps
+        d = deps.deps_dir()
+        if d is not None and Path(d).is_dir():
+            env.setdefault("SSGI_DEPS_DIR", str(d))
+    except Exception:
+        pass
+    return env
+
+
+def _stderr(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def sample_camera(meta: dict) -> str | None:
+    c = meta.get("camera")
+    if isinstance(c, dict):
+        c = c.get("name")
+    return None if c is None or isinstance(c, (dict, list)) else str(c)
+
+
+def split_views(data_dir, plan: dict) -> tuple[list[str], list[str], list[str]]:
+    """(train, val, test) sample keys of the baked views, by each sample's camera role in the plan."""
+    from ...model.learn import data, fit as mfit
+    m = data.read_manifest(data_dir)
+    by_cam: dict[str, list[str]] = {}
+    unknown = []
+    for key, meta in m["samples"].items():
+        cam = sample_camera(meta)
+        if cam not in plan["cameras"]:
+            unknown.append(key)
+            continue
+        by_cam.setdefault(cam, []).append(key)
+    if unknown:
+        raise UserError(f"{Path(data_dir) / 'manifest.json'}: sample(s) {', '.join(unknown[:5])} name no camera of "
+                        f"the plan ({', '.join(plan['cameras'])}); bake the views into an empty folder")
+    roles_ = plan["cameras"]
+    return mfit.split_views(by_cam, test_cameras=[c for c, r in roles_.items() if r == "test"],
+                            val_cameras=[c for c, r in roles_.items() if r == "val"])
+
+
+# ------------------------------------------------------------------------------------------------- the UI job
+
+def parse_progress(line: str) -> dict | None:
+    if not line.startswith(PROGRESS_PREFIX):
+        return None
+    try:
+        d = json.loads(line[len(PROGRESS_PREFIX):])
+    except ValueError:
+        return None
+    return d if isinstance(d, dict) else None
+
+
+def start(scene, blend_copy: str, out: str, views: int, minutes: float, target_psnr: float | None,
+          threads: int | None = None, extra_args=()):
+    """Start ``cli.py fit`` on ``blend_copy`` (a saved copy of the open file) in a child process, watched by a
+    jobs.Job; returns the job. Cancel terminates the child (nothing is written: the model appears only
+    when the fit completes)."""
+    from ..runtime import jobs
+
+    args = ["fit", "--blend", str(blend_copy), "--scene", scene.name, "--out", str(out), "--views", str(views),
+            "--minutes", f"{minutes:g}", "--progress", "--json", *extra_args]
+    if target_psnr:
+        args += ["--target-psnr", f"{target_psnr:g}"]
+    if threads:
+        args += ["--threads", str(threads)]
+    cmd = cli_command(*args)
+    env = _child_env()
+    scene_name = scene.name
+
+    def work(job):
+        import queue
+        import threading
+
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                                start_new_session=True)
+        job.proc = proc  # its own process group: Cancel ends it and the baker it starts
+        lines: queue.Queue = queue.Queue()
+        out_chunks: list[str] = []
+        readers = [threading.Thread(target=lambda: out_chunks.append(proc.stdout.read()), daemon=True),
+                   threading.Thread(target=lambda: [lines.put(l) for l in proc.stderr] and None, daemon=True)]
+        for t in readers:
+            t.start()
+        tail: list[str] = []
+        phases: list[str] = []  # every phase seen, in order (job.state keeps only the latest report)
+        while True:
+            if job.cancelled:
+                _terminate(proc)
+                job.check_cancel()
+            try:
+                line = lines.get(timeout=0.2)
+            except queue.Empty:
+                if proc.poll() is not None and not readers[1].is_alive() and lines.empty():
+                    break
+                continue
+            d = parse_progress(line.rstrip("\n"))
+            if d is not None:
+                if d.get("phase") and (not phases or phases[-1] != d["phase"]):
+                    phases.append(d["phase"])
+                job.report(phases=list(phases), **d)
+            elif line.strip() and "EGL" not in line:
+                tail.append(line.rstrip())
+                del tail[:-20]
+                job.report(log=line.rstrip())
+        proc.wait()
+        readers[0].join(timeout=5)
+        if proc.returncode != 0:
+            raise UserError("\n".join(tail)[-600:] or f"fit exited with status {proc.returncode}")
+        text = "".join(out_chunks)
+        try:
+            return json.loads(text[text.index("{"):])
+        except ValueError:
+            return {"model": out}
+
+    def done(job):
+        import bpy
+        sc = bpy.data.scenes.get(scene_name)
+        if sc is not None and job.result and Path(job.result.get("model") or "").is_file():
+            sc.ssgi.model_path = str(job.result["model"])
+
+    return jobs.Job(JOB, work, on_done=done).start()
+
+
+def group_members(pgid: int) -> list[int]:
+    """Live (not zombie) processes of process group ``pgid`` (Linux /proc; empty elsewhere)."""
+    out = []
+    for d in Path("/proc").glob("[0-9]*"):
+        try:
+            stat = (d / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()  # state ppid pgrp ...
+        if len(fields) > 2 and int(fields[2]) == pgid and fields[0] != "Z":
+            out.append(int(d.name))
+    return out
+
+
+def _terminate(proc) -> None:
+    """End the fit's child process and everything it started (the baker) through its process group: SIGTERM,
+    then SIGKILL for what is still there after 10 s, until no member of the group is left."""
+    import time
+    pgid = proc.pid
+    try:
+        os.killpg(pgid, signal.SIGTERM)
+    except (ProcessLookupError, PermissionError):
+        pass
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        pass
+    end = time.time() + 10
+    while time.time() < end:
+        if proc.poll() is not None and not group_members(pgid):
+            break
+        try:
+            os.killpg(pgid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        time.sleep(0.1)
+    proc.wait()
+
+
+def status_text(state: dict) -> str:
+    parts = [str(state.get("phase") or state.get("status") or "")]
+    if state.get("message"):
+        parts.append(str(state["message"]))
+    if state.get("left_s") is not None:
+        parts.append(f"{state['left_s'] / 60:.1f} min left")
+    return " · ".join(p for p in parts if p)

@@ -1,0 +1,456 @@
+"""The SSGI render path: for each frame, render EEVEE's passes -> predict -> composite with the artist's tree
+-> write the frame where the scene's output settings say, in their format.
+
+    session = RenderSession(scene, frames=[1, 2, 3], model=None, out=None)   # checks everything first
+    summary = session.run()                                                # or: for info in session.frames()
+
+Per frame:
+1. ``passes.render_gbuffer(scene, groups)`` renders the direct-only G-buffer the model needs (plus depth and
+   EEVEE's Combined for the world pixels). Every scene setting it changes (engine, EEVEE settings, light
+   data, view-layer passes, output format) is put back afterwards by ``preserved()``.
+2. The model predicts linear HDR RGB. Pixels with no geometry (depth at the camera's clip end, or zero alpha)
+   keep EEVEE's Combined colour. Alpha is not predicted: the node takes it from its Image input.
+3. The prediction goes into the "SSGI Prediction" image (node.py). The pass render's result is saved as a
+   multilayer EXR and loaded into Image nodes that stand in for the tree's Render Layers nodes (an Image
+   node with a multilayer EXR has the same pass sockets; "Image" is called "Combined" there), so nodes that
+   mix other passes keep working; the Render Layers nodes are muted, which makes the render composite-only
+   (no 3D render). The tree is put back afterwards.
+4. The composite (``Render Result``) is saved with the scene's image settings to a temporary name and
+   renamed into place (``scene.render.frame_path``, or ``out``).
+
+Renders are driven from a plain loop (``run``) or one frame per UI timer tick (the operator); never from
+render handlers (that stopped or crashed animations, shared/blender5-notes.md). Cancelling between frames
+keeps the frames already written. A ``render_pre`` handler (``on_render_pre``) puts the placeholder into the
+node's image before any render that is not this path's, and says so on stderr.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ...model import channels as ch
+from ...model.errors import UserError
+from ..blender import node as ssgi_node
+
+# how many SSGI renders are running right now (the render_pre handler leaves those alone)
+_ACTIVE = 0
+# progress of the UI's render, drawn by the panels
+STATE: dict = {"status": "idle", "message": "", "progress": 0.0, "done": 0, "total": 0}
+_PREDICTORS: dict = {}
+WORLD_DEPTH_FRACTION = 0.999  # depth >= this * clip_end: no geometry (EEVEE writes clip_end there)
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MiB)."""
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def log(msg: str) -> None:
+    print(f"SSGI: {msg}", file=sys.stderr, flush=True)
+
+
+# --- the model ---------------------------------------------------------------------------------------------
+
+def load_model(path: Path):
+    """A cached Predictor for ``path`` (reloaded when the file changes). UserError names a missing/bad file."""
+    path = Path(path)
+    if not path.is_file():
+        hint = " (the shipped default model)" if path == ssgi_node.DEFAULT_MODEL else ""
+        raise UserError(f"{path}: no such model file{hint}; set the SSGI node's model or pass --model")
+    try:
+        from ...model.learn import checkpoint
+    except ImportError as e:  # torch missing in this Blender
+        from ..runtime import deps
+        raise UserError(deps.missing_message("The SSGI node") + f" ({e})") from None
+    key = (str(path.resolve()), path.stat().st_mtime_ns)
+    pred = _PREDICTORS.get(key)
+    if pred is None:
+        threads = None
+        try:
+            from .. import preferences
+            if preferences.prefs() is not None:
+                threads = preferences.torch_threads()
+        except Exception:
+            threads = None
+        pred = checkpoint.load_predictor(path, num_threads=threads)
+        _PREDICTORS.clear()
+        _PREDICTORS[key] = pred
+    return pred
+
+
+def missing_passes(scene, spec) -> list[str]:
+    """View-layer pass flags that ``spec`` needs and the first view layer (the one the passes come from)
+    lacks."""
+    vl = scene.view_layers[0]
+    return [flag for flag in ch.required_passes(tuple(spec)) if not getattr(vl, flag, False)]
+
+
+def pass_label(flag: str) -> str:
+    """'use_pass_diffuse_direct' -> 'Diffuse Direct (use_pass_diffuse_direct)'."""
+    try:
+        name = bpy.types.ViewLayer.bl_rna.properties[flag].name
+    except KeyError:
+        name = flag
+    return f"{name} ({flag})"
+
+
+# --- putting the scene back ---------------------------------------------------------------------------------
+
+_SIMPLE = {"BOOLEAN", "INT", "FLOAT", "STRING", "ENUM"}
+
+
+def _snapshot(struct) -> dict:
+    out = {}
+    for p in struct.bl_rna.properties:
+        if p.is_readonly or p.identifier == "rna_type":
+            continue
+        if p.type in _SIMPLE or (p.type == "POINTER" and isinstance(getattr(struct, p.identifier, None), bpy.types.ID)):
+            try:
+                v = getattr(struct, p.identifier)
+            except AttributeError:
+                continue
+            if p.type in ("INT", "FLOAT", "BOOLEAN") and getattr(p, "array_length", 0):
+                v = tuple(v)
+            out[p.identifier] = v
+    return out
+
+
+def _restore(struct, saved: dict) -> None:
+    for k, v in saved.items():
+        try:
+            cur = getattr(struct, k)
+            if isinstance(v, tuple):
+                cur = tuple(cur)
+            if cur != v:
+                setattr(struct, k, v)
+        except (AttributeError, TypeError, ValueError, RuntimeError):
+            pass  # read-only in this state, or an enum item that no longer exists: leave it
+
+
+def _structs(scene) -> list:
+    r = scene.render
+    out = [scene, r, r.image_settings, scene.eevee, scene.view_settings, scene.display_settings]
+    out += list(scene.view_layers)
+    out += list({o.data for o in scene.objects if o.type == "LIGHT"})
+    out += [o for o in scene.objects if o.type == "LIGHT_PROBE"]
+    if scene.world is not None:
+        out.append(scene.world)
+    return out
+
+
+@contextlib.contextmanager
+def preserved(scene):
+    """Put back every plain setting of the scene, its render/EEVEE/colour settings, view layers, light data and
+    world on exit, and the current frame."""
+    frame = scene.frame_current
+    saved = [(s, _snapshot(s)) for s in _structs(scene)]
+    # image_settings is restored twice: a file format change resets colour depth/codec, so format first
+    try:
+        yield
+    finally:
+        for s, v in saved:
+            _restore(s, v)
+        _restore(scene.render.image_settings, saved[2][1])
+        if scene.frame_current != frame:
+            scene.frame_set(frame)
+
+
+# --- the composite-only pass ----------------------------------------------------------------------------
+
+def _standin_socket(rl_socket_name: str) -> str:
+    return "Combined" if rl_socket_name == "Image" else rl_socket_name
+
+
+@contextlib.contextmanager
+def standins(scene, exr_path: str | None):
+    """Mute the compositor's Render Layers nodes (so the render is composite-only) and feed their links from
+    Image nodes showing the pass render's multilayer EXR; put the tree back on exit."""
+    tree = scene.compositing_node_group
+    rls = [n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers" and not n.mute]
+    saved_links = [(l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
+                   for l in tree.links if l.from_node in rls]
+    added, image = [], None
+    try:
+        if exr_path and rls:
+            image = bpy.data.images.load(exr_path, check_existing=False)
+            image.name = ".SSGI passes"
+        for rl in rls:
+            rl.mute = True
+            if image is None:
+                continue
+            st = tree.nodes.new("CompositorNodeImage")
+            added.append(st)
+            st.image = image
+            st.location = (rl.location.x, rl.location.y - 400)
+            try:
+                st.layer = rl.layer
+            except TypeError:
+                pass
+            for l in [l for l in tree.links if l.from_node == rl]:
+                out = st.outputs.get(_standin_socket(l.from_socket.name))
+                if out is not None:
+                    tree.links.new(out, l.to_socket)
+        yield
+    finally:
+        for st in added:
+            tree.nodes.remove(st)
+        for rl in rls:
+            rl.mute = False
+        for fn, fs, tn, ts in saved_links:
+            a, b = tree.nodes.get(fn), tree.nodes.get(tn)
+            if a is None or b is None:
+                continue
+            fsock = next((s for s in a.outputs if s.identifier == fs), None)
+            tsock = next((s for s in b.inputs if s.identifier == ts), None)
+            if fsock is not None and tsock is not None and not any(
+                    l.from_socket == fsock and l.to_socket == tsock for l in tree.links):
+                tree.links.new(fsock, tsock)
+        if image is not None:
+            bpy.data.images.remove(image)
+
+
+def save_multilayer(scene, path: str) -> None:
+    """Save the current Render Result (all passes, 32-bit) as a multilayer EXR; output settings put back."""
+    ims = scene.render.image_settings
+    saved = _snapshot(ims)
+    try:
+        ims.media_type = "MULTI_LAYER_IMAGE"
+        ims.file_format = "OPEN_EXR_MULTILAYER"
+        ims.color_depth = "32"
+        bpy.data.images["Render Result"].save_render(path, scene=scene)
+    finally:
+        _restore(ims, saved)
+        _restore(ims, saved)
+
+
+def world_mask(groups: dict, clip_end: float) -> np.ndarray:
+    """HxW bool: pixels where no geometry was hit (depth at the camera's clip end, or EEVEE alpha 0)."""
+    m = groups["depth"][..., 0] >= WORLD_DEPTH_FRACTION * clip_end
+    if "eevee" in groups and groups["eevee"].shape[-1] == 4:
+        m |= groups["eevee"][..., 3] <= 0.0
+    return m
+
+
+def compose(pred: np.ndarray, groups: dict, clip_end: float) -> np.ndarray:
+    """The image the node shows: the prediction, with EEVEE's Combined colour where there is no geometry."""
+    out = np.array(pred[..., :3], dtype=np.float32, copy=True)
+    m = world_mask(groups, clip_end)
+    out[m] = groups["eevee"][..., :3][m]
+    return out
+
+
+# --- output paths --------------------------------------------------------------------------------------
+
+def output_path(scene, frame: int, out: str | None = None, single: bool = False) -> Path:
+    """Where a frame goes: the scene's output path (``frame_path``), or ``out``. ``out`` with ``#`` or for
+    several frames gets the frame number as Blender does; a single frame's ``out`` without ``#`` is used as
+    the file name (plus the format's extension when the scene adds extensions and the name has none)."""
+    r = scene.render
+    if out is not None and single and "#" not in out:
+        p = Path(os.path.abspath(os.path.expanduser(bpy.path.abspath(out))))
+        if r.use_file_extension and not p.suffix:
+            p = p.with_name(p.name + r.file_extension)
+        return p
+    if out is None:
+        return Path(r.frame_path(frame=frame))
+    old = r.filepath
+    try:
+        r.filepath = out if out.startswith("//") else os.path.abspath(os.path.expanduser(out))
+        return Path(r.frame_path(frame=frame))
+    finally:
+        r.filepath = old
+
+
+def atomic_save_render(scene, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for stale in path.parent.glob(f".{path.stem}.*.tmp{path.suffix}"):  # a killed render's (issue 7, case 9)
+        stale.unlink(missing_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        bpy.data.images["Render Result"].save_render(str(tmp), scene=scene)
+        if not tmp.is_file():
+            raise UserError(f"{path}: Blender wrote no file (output format {scene.render.image_settings.file_format})")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+# --- the session --------------------------------------------------------------------------------------
+
+class RenderSession:
+    """One SSGI render of ``frames`` of ``scene``. The constructor checks everything that can be wrong
+    (model file, channel spec against the view layer's passes, SSGI node present, camera, output format)
+    and raises UserError before changing anything."""
+
+    def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
+                 samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
+                 predictor=None):
+        self.scene = scene
+        self.frames = list(frames) if frames is not None else [scene.frame_current]
+        if not self.frames:
+            raise UserError("no frames to render")
+        tree = scene.compositing_node_group
+        self.nodes = ssgi_node.ssgi_nodes(tree)
+        if not self.nodes:
+            raise UserError(f"scene {scene.name!r} has no SSGI node in its compositor: add one (Add > SSGI) or "
+                            f"run 'Set up SSGI' (bpy.ops.ssgi.setup)")
+        if scene.camera is None:
+            raise UserError(f"scene {scene.name!r} has no camera")
+        if write and scene.render.image_settings.media_type == "VIDEO":
+            raise UserError(f"scene {scene.name!r} writes a video ({scene.render.image_settings.file_format}); "
+                            f"SSGI renders write image files: choose an image format in Output Properties")
+        self.model_path = ssgi_node.resolve_model(scene, model)
+        self.predictor = predictor if predictor is not None else load_model(self.model_path)
+        self.spec = tuple(self.predictor.spec)
+        miss = missing_passes(scene, self.spec)
+        if miss:
+            raise UserError(
+                f"model {self.model_path} (inputs {ch.format_spec(self.spec)}) needs pass(es) "
+                f"{', '.join(pass_label(f) for f in miss)}, which view layer {scene.view_layers[0].name!r} of scene "
+                f"{scene.name!r} does not render: run 'Set up SSGI' or enable them in View Layer > Passes")
+        # normal too: it marks the pixels where nothing was hit for the depth normalisation, as in training
+        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal", "eevee")))
+        self.out = out
+        self.write = write
+        self.samples = int(samples) if samples else int(scene.eevee.taa_render_samples)
+        self.save_passes = Path(save_passes) if save_passes else None
+        self.keep_groups = keep_groups
+        self.cancelled = False
+        self.results: list[dict] = []
+
+    def _frame(self, frame: int) -> dict:
+        from ..blender import passes
+
+        scene = self.scene
+        info: dict = {"frame": frame}
+        scene.frame_set(frame)
+        exr = None
+        try:
+            with preserved(scene):
+                t0 = time.perf_counter()
+                groups = passes.render_gbuffer(scene, self.groups, samples=self.samples)
+                missing = [g for g in self.groups if g not in groups]
+                if missing:
+                    raise UserError(f"the pass render returned no {', '.join(missing)} for scene {scene.name!r}")
+                info["t_passes"] = time.perf_counter() - t0
+                info["rss_mb_passes"] = peak_rss_mb()
+                t0 = time.perf_counter()
+                # made after the pass render (not during it), named by process: see docs/hard_cases.md
+                fd, exr = tempfile.mkstemp(prefix=f"ssgi-passes-{os.getpid()}-", suffix=".exr")
+                os.close(fd)
+                save_multilayer(scene, exr)
+                info["t_standin"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            pred = self.predictor.predict({g: groups[g] for g in ch.required_groups(self.spec) + ("normal",)})
+            rgb = compose(pred, groups, scene.camera.data.clip_end)
+            info["t_predict"] = time.perf_counter() - t0
+            info["rss_mb_predict"] = peak_rss_mb()
+            info["repaired_pixels"] = self.predictor.last_repaired  # non-finite inputs (normalize.repair)
+            t0 = time.perf_counter()
+            with preserved(scene):
+                scene.render.use_compositing = True
+                scene.render.use_sequencer = False
+                ssgi_node.set_prediction(rgb, scene, frame, str(self.model_path))
+                for n in self.nodes:
+                    n.label = ssgi_node.NODE_LABEL
+                with standins(scene, exr):
+                    bpy.ops.render.render(scene=scene.name)
+            info["t_composite"] = time.perf_counter() - t0
+            if self.write:
+                t0 = time.perf_counter()
+                path = output_path(scene, frame, self.out, single=len(self.frames) == 1)
+                atomic_save_render(scene, path)
+                info["path"] = str(path)
+                info["t_write"] = time.perf_counter() - t0
+            if self.save_passes is not None:
+                from ...model.dataset import exrio
+                self.save_passes.mkdir(parents=True, exist_ok=True)
+                exrio.write_sample(self.save_passes / f"{frame:06d}.exr", {g: groups[g] for g in self.groups},
+                                   half=False, header={"ssgi_frame": frame})
+            if self.keep_groups:
+                info["groups"] = groups
+                info["prediction"] = rgb
+        finally:
+            if exr is not None:
+                with contextlib.suppress(OSError):
+                    os.unlink(exr)
+        return info
+
+    def iter_frames(self, should_cancel=None):
+        """Render frame after frame, yielding each frame's info (timings, path). Stops between frames when
+        ``should_cancel()`` is true; frames already written stay."""
+        global _ACTIVE
+        scene = self.scene
+        frame0 = scene.frame_current
+        _ACTIVE += 1
+        try:
+            for i, f in enumerate(self.frames):
+                if should_cancel is not None and should_cancel():
+                    self.cancelled = True
+                    log(f"cancelled after {i} of {len(self.frames)} frame(s); written frames are kept")
+                    break
+                t0 = time.perf_counter()
+                info = self._frame(f)
+                info["t_total"] = time.perf_counter() - t0
+                self.results.append(info)
+                log(f"frame {f} ({i + 1}/{len(self.frames)}): passes {info['t_passes']:.2f} s, predict "
+                    f"{info['t_predict']:.2f} s, composite {info['t_composite']:.2f} s"
+                    + (f", wrote {info['path']}" if "path" in info else "")
+                    + (f", repaired {info['repaired_pixels']} non-finite input pixel(s)" if info["repaired_pixels"] else ""))
+                yield info
+        finally:
+            _ACTIVE -= 1
+            if scene.frame_current != frame0:
+                scene.frame_set(frame0)
+
+    def run(self, should_cancel=None) -> dict:
+        for _ in self.iter_frames(should_cancel):
+            pass
+        return self.summary()
+
+    def summary(self) -> dict:
+        res = [{k: v for k, v in r.items() if k not in ("groups", "prediction")} for r in self.results]
+        return {"scene": self.scene.name, "model": str(self.model_path), "inputs": ch.format_spec(self.spec),
+                "frames": [r["frame"] for r in res], "files": [r["path"] for r in res if "path" in r],
+                "cancelled": self.cancelled, "per_frame": res}
+
+
+def frames_of(scene, animation: bool) -> list[int]:
+    if not animation:
+        return [scene.frame_current]
+    return list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
+
+
+# --- plain renders ---------------------------------------------------------------------------------------
+
+@bpy.app.handlers.persistent
+def on_render_pre(scene, *_args):
+    """Before a render that is not the SSGI path's: the SSGI node must not show a stale prediction. Put the
+    placeholder in its image, mark the node, and say so on stderr."""
+    if _ACTIVE:
+        return
+    try:
+        tree = scene.compositing_node_group
+        nodes = ssgi_node.ssgi_nodes(tree)
+        if not nodes or not scene.render.use_compositing:
+            return
+        r = scene.render
+        w = max(1, r.resolution_x * r.resolution_percentage // 100)
+        h = max(1, r.resolution_y * r.resolution_percentage // 100)
+        ssgi_node.set_placeholder(w, h)
+        for n in nodes:
+            n.label = "SSGI: placeholder, use Render SSGI"
+        log(f"scene {scene.name!r} frame {scene.frame_current}: a plain render shows the SSGI node's magenta "
+            f"placeholder, not a prediction. Use Render > Render SSGI Image/Animation, bpy.ops.ssgi.render() "
+            f"or 'cli.py render'.")
+    except Exception as e:  # a handler must never break the artist's render
+        log(f"render_pre check failed: {type(e).__name__}: {e}")

@@ -1,0 +1,1 @@
+"""ssgi_addon/runtime."""
