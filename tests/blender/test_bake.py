@@ -16,7 +16,7 @@ from ssgi.model import channels as ch
 from ssgi.model.dataset import folder as ds
 from ssgi.model.dataset import exrio
 
-from .conftest import run_cli, run_py
+from ..conftest import run_cli, run_py
 
 SIZE = "64x36"
 BAKE = ("bake", "--count", "2", "--seed", "3", "--size", SIZE, "--ref-samples", "2")

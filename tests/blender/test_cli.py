@@ -1,7 +1,7 @@
 """The command line: both entry styles parse, every subcommand has --help, bad arguments name the argument."""
 import json
 
-from .conftest import run_cli, run_py
+from ..conftest import run_cli, run_py
 
 
 def test_info_json_reports_versions():
@@ -140,7 +140,7 @@ def test_test_sessions_remove_their_blender_user_folders(tmp_path):
     import subprocess
     import sys
 
-    from .conftest import ROOT
+    from ..conftest import ROOT
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     foreign = tmp / "ssgi-test-user-not-ours"

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from .conftest import ROOT, run_cli, run_py
+from ..conftest import ROOT, run_cli, run_py
 
 # The demo is built from other areas' modules; where one is not in this checkout yet, the demo must say so
 # and render nothing, and these tests check exactly that instead.

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import run_cli, run_py
+from ..conftest import run_cli, run_py
 
 # modules that randomizing and baking use; they must import without torch (those not written yet are skipped
 # inside the subprocess and listed in its report)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import BLENDER_EXT, ROOT, run_py
+from ..conftest import BLENDER_EXT, ROOT, run_py
 
 TOOL = BLENDER_EXT
 PKG = "bl_ext.user_default.ssgi"

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .conftest import clean, run_cli, run_py
+from ..conftest import clean, run_cli, run_py
 
 W, H = 64, 36
 

@@ -11,7 +11,7 @@ from ssgi.model.learn import checkpoint, network
 from ssgi.model import metrics
 from ssgi.model.evaluate import report as rep
 
-from .conftest import run_cli, run_py
+from ..conftest import run_cli, run_py
 
 # ------------------------------------------------------------------------------------------ metrics
 

@@ -7,7 +7,7 @@ from collections import Counter
 
 from ssgi.ssgi_addon.blender import room
 
-from .conftest import run_cli, run_py
+from ..conftest import run_cli, run_py
 
 
 def _jsonable(d):

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..conftest import clean, run_cli, run_py
-from ..test_node import room  # noqa: F401  (fixture: a 64x36, 3-frame room .blend with SSGI set up)
+from ..blender.test_node import room  # noqa: F401  (fixture: a 64x36, 3-frame room .blend with SSGI set up)
 from .conftest import kill_at_random
 
 

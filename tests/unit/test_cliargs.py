@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from ssgi.model import cliargs
 from ssgi.model.errors import UserError
 
-from .conftest import ROOT
+from ..conftest import ROOT
 
 
 def test_parse_size():

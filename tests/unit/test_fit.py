@@ -17,7 +17,7 @@ from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
 from ssgi.model.learn.train import TrainConfig, evaluate
 
-from .conftest import clean, run_cli, run_py
+from ..conftest import clean, run_cli, run_py
 
 ABLATE_ALL = 1000.0  # a drop tolerance that drops every group the head does not need
 
@@ -265,7 +265,7 @@ def scene_fit(tmp_path_factory, generic):
     with the fitted model."""
     import hashlib
 
-    from .test_node import SCENE
+    from ..blender.test_node import SCENE
     d = tmp_path_factory.mktemp("scene_fit")
     blend = d / "room.blend"
     run_py(SCENE + f'''
@@ -400,7 +400,7 @@ json.dump(res, open({str(out)!r}, "w"))
 def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(scene_fit):
     from ssgi.model.dataset import exrio
 
-    from .test_node import expected_image, read_rgba
+    from ..blender.test_node import expected_image, read_rgba
     ck = checkpoint.load(scene_fit["model"])
     assert tuple(ck["inputs"]) == ("albedo", "direct") and scene_fit["summary"]["inputs"] == ["albedo", "direct"]
     assert scene_fit["render"]["inputs"] == "albedo,direct"

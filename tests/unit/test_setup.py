@@ -6,7 +6,7 @@ import re
 import subprocess
 from importlib import metadata
 
-from .conftest import ROOT
+from ..conftest import ROOT
 
 
 def _pins(path) -> dict[str, str]:

@@ -14,7 +14,7 @@ from ssgi.model.learn.baseline import fit, run_baseline
 from ssgi.model.errors import UserError
 from ssgi.model.learn.train import Diverged, TrainConfig, Trainer
 
-from .conftest import run_cli
+from ..conftest import run_cli
 
 
 @pytest.fixture(scope="module")
@@ -281,7 +281,7 @@ def _report(p) -> dict:
 
 
 def test_blender_train_operator_runs_in_background_and_panel_shows_progress(tmp_path, dataset_dir):
-    from .conftest import run_py
+    from ..conftest import run_py
     out = tmp_path / "ui.pt"
     rep = _report(run_py(_BLENDER_TRAIN, str(dataset_dir), str(out), "0.1", "run", timeout=300))
     assert "dataset folder does not exist" in rep["missing_error"]
@@ -296,7 +296,7 @@ def test_blender_train_operator_runs_in_background_and_panel_shows_progress(tmp_
 
 
 def test_blender_train_cancel_keeps_last_checkpoint(tmp_path, dataset_dir):
-    from .conftest import run_py
+    from ..conftest import run_py
     out = tmp_path / "ui.pt"
     rep = _report(run_py(_BLENDER_TRAIN, str(dataset_dir), str(out), "5", "cancel", timeout=300))
     assert rep["state"]["status"] == "cancelled" and rep["result"] is None
