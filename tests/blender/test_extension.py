@@ -4,66 +4,13 @@ disable/enable leaves nothing behind, and the bundled OpenEXR wheel is importabl
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
-import sys
-import zipfile
-from pathlib import Path
 
 import pytest
 
-from ..conftest import BLENDER_EXT, ROOT, run_py
+from ..conftest import BLENDER_EXT, run_py
 
 TOOL = BLENDER_EXT
 PKG = "bl_ext.user_default.ssgi"
-
-
-def test_validate_accepts_manifest_and_rejects_a_broken_one(tmp_path):
-    p = subprocess.run([*TOOL, "validate", str(ROOT)], capture_output=True, text=True, timeout=60)
-    assert p.returncode == 0 and "Success" in p.stdout, p.stdout + p.stderr
-    # the tool is a real check: the same manifest without a license, or with an old Blender, is refused
-    text = (ROOT / "blender_manifest.toml").read_text()
-    for broken, why in ((text.replace('license = ["SPDX:GPL-3.0-or-later"]', ""), "license"),
-                        (text.replace('blender_version_min = "5.0.0"', 'blender_version_min = "five"'), "blender_version_min")):
-        assert broken != text
-        d = tmp_path / why
-        d.mkdir()
-        (d / "blender_manifest.toml").write_text(broken)
-        (d / "__init__.py").write_text("")
-        shutil.copytree(ROOT / "wheels", d / "wheels")
-        p = subprocess.run([*TOOL, "validate", str(d)], capture_output=True, text=True, timeout=60)
-        assert p.returncode != 0 and why in p.stdout + p.stderr, (why, p.stdout, p.stderr)
-
-
-def test_manifest_fields():
-    import tomllib
-    m = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
-    assert m["id"] == "ssgi" and m["type"] == "add-on"
-    assert m["blender_version_min"] == "5.0.0"
-    assert any("GPL" in lic for lic in m["license"])
-    assert set(m["permissions"]) == {"files", "network"}
-    for w in m["wheels"]:
-        assert (ROOT / w).is_file(), w
-
-
-def test_build_zip_contents(built_zip):
-    names = zipfile.ZipFile(built_zip).namelist()
-    tops = {n.split("/")[0] for n in names}
-    for left_out in ("tests", ".ci", "scripts", ".venv", ".git", "docs", "out", "dist", "data", "Makefile",
-                     "requirements.txt", "requirements.lock", "pytest.ini", ".gitignore"):
-        assert left_out not in tops, left_out
-    assert not [n for n in names if "__pycache__" in n or n.endswith((".pyc", ".tmp"))]
-    for needed in ("blender_manifest.toml", "__init__.py", "cli.py", "ssgi_addon/__init__.py", "ssgi_addon/runtime/deps.py",
-                   "ops/deps_ops.py", "panels/main_panel.py", "model/channels.py", "model/dataset/exrio.py"):
-        assert needed in names, needed
-    import tomllib
-    for w in tomllib.loads((ROOT / "blender_manifest.toml").read_text())["wheels"]:
-        assert w.removeprefix("./") in names, w
-    # every tracked package module of the checkout is in the zip
-    tracked = subprocess.run(["git", "ls-files", "*.py"], cwd=ROOT, capture_output=True, text=True).stdout.split()
-    for f in tracked:
-        if f.split("/")[0] in ("ssgi_addon", "ops", "panels", "model"):
-            assert f in names, f
 
 
 # One subprocess does the whole install / disable / enable round and reports what it saw as JSON; the tests
