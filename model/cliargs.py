@@ -15,6 +15,7 @@ They raise ``ArgError``, which is both an ``argparse.ArgumentTypeError`` (argpar
 from __future__ import annotations
 
 import argparse
+import codecs
 import re
 from pathlib import Path
 from typing import NamedTuple, Sequence
@@ -178,3 +179,37 @@ def channel_spec(text: str) -> tuple[str, ...]:
         raise
     except UserError as e:
         raise ArgError(str(e)) from None
+
+
+# the first bytes of files that are often passed as a model by mistake
+_NOT_MODELS = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"v/1\x01", "an OpenEXR image"),
+               (b"GIF8", "a GIF image"), (b"II*\x00", "a TIFF image"), (b"MM\x00*", "a TIFF image"),
+               (b"BLENDER", "a .blend file"), (b"\x28\xb5\x2f\xfd", "zstd-compressed data, as a compressed .blend"),
+               (b"\x1f\x8b", "a gzip-compressed file"), (b"%PDF", "a PDF document"))
+_A_MODEL = "a model is one .pt file written by `cli.py train`, `baseline` or `fit`"
+
+
+def model_file_fault(path) -> str | None:
+    """Why ``path`` cannot be an SSGI model, told without torch: "no such model file", or "not an SSGI model
+    checkpoint (what it is ...)" for a folder, an empty, text or image file; None when it may be one (a torch
+    file: zip, or a pickle from before torch 1.6), for the loader to decide."""
+    p = Path(path).expanduser()
+    if p.is_dir():
+        return f"not an SSGI model checkpoint (a folder; {_A_MODEL})"
+    if not p.is_file():
+        return "no such model file"
+    with p.open("rb") as f:
+        head = f.read(512)
+    what = None
+    if not head:
+        what = "an empty file"
+    elif not (head.startswith(b"PK\x03\x04") or head[:1] == b"\x80"):
+        what = next((w for magic, w in _NOT_MODELS if head.startswith(magic)), None)
+        if what is None:
+            try:  # incremental: a character cut at byte 512 is no fault
+                text = codecs.getincrementaldecoder("utf-8")().decode(head)
+                if "\x00" not in text:
+                    what = f"a text file: {' '.join(text.split())[:60]!r}"
+            except UnicodeDecodeError:
+                pass
+    return f"not an SSGI model checkpoint ({what}; {_A_MODEL})" if what else None

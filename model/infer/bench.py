@@ -78,18 +78,24 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
     torch.set_num_threads(threads)
     sizes = [_parse_size(s) for s in sizes]
     names = list(variants) if variants is not None else list(V.TRAINABLE) + ["linear"]
+    for name in names:  # every argument is checked before any timing (issue 13)
+        if name not in V.VARIANTS:
+            raise UserError(f"unknown variant {name!r}; known: {', '.join(V.VARIANTS)}")
+    if out and not Path(out).expanduser().resolve().parent.is_dir():
+        raise UserError(f"--out {out}: folder {Path(out).expanduser().resolve().parent} does not exist")
+    given = {}
+    for m in models:
+        ck = checkpoint.load(m)
+        given[m] = (ck, checkpoint.build_net(ck, m))
     rows = []
     todo = [(n, None) for n in names] + [(None, m) for m in models]
     for name, model in todo:
         if model is None:
-            if name not in V.VARIANTS:
-                raise UserError(f"unknown variant {name!r}; known: {', '.join(V.VARIANTS)}")
             torch.manual_seed(0)
             net = network.build(network.arch_for(name))
             ckpt = checkpoint.make(net.eval(), "network", command="bench")
         else:
-            ckpt = checkpoint.load(model)
-            net = checkpoint.build_net(ckpt, model)
+            ckpt, net = given[model]
         label = name or str(model)
         macs = network.macs_per_pixel(net)
         for prec in precisions:

@@ -29,6 +29,7 @@ import numpy as np
 import torch
 
 from .. import channels as ch
+from .. import cliargs
 from . import network
 from .. import normalize
 from ..errors import UserError
@@ -87,14 +88,19 @@ def save(path, ckpt: dict) -> None:
 
 
 def load(path) -> dict:
-    """Read a checkpoint; a UserError names the file if it is not an SSGI checkpoint."""
+    """Read a checkpoint; a UserError names the file, and says what it is, if it is not an SSGI checkpoint."""
     path = Path(path)
-    if not path.is_file():
-        raise UserError(f"{path}: no such model file")
+    fault = cliargs.model_file_fault(path)
+    if fault:
+        raise UserError(f"{path}: {fault}")
     try:
         d = torch.load(path, map_location="cpu", weights_only=True)
     except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError, OSError, AttributeError, KeyError,
             ImportError, TypeError, IndexError, UnicodeDecodeError) as e:
+        if "weights_only" in str(e):  # torch's advice to load it unsafely: not for a model from elsewhere
+            raise UserError(f"{path}: not an SSGI model checkpoint (a torch file holding Python objects other than "
+                            f"tensors and plain data; SSGI checkpoints hold only those, and SSGI does not run code "
+                            f"from a model file)") from None
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise UserError(f"{path}: not an SSGI model checkpoint (torch could not read it: {first[:200]})") from None
     if not isinstance(d, dict) or "ssgi_checkpoint" not in d:

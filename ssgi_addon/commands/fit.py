@@ -64,6 +64,9 @@ def _run(args) -> dict:
         raise UserError(f"--out {args.out}: the model file must end in .pt")
     if not out.parent.is_dir():
         raise UserError(f"--out {args.out}: folder {out.parent} does not exist")
+    fault = cliargs.model_file_fault(args.init) if args.init else None
+    if fault:  # before any baking
+        raise UserError(f"--init {args.init}: {fault}")
     work = work_dir(out)
 
     def progress(d):
@@ -105,8 +108,6 @@ def _run(args) -> dict:
     from ...model.learn import fit as mfit
     from ..blender.node import DEFAULT_MODEL
     init = args.init or (str(DEFAULT_MODEL) if DEFAULT_MODEL.is_file() else None)
-    if args.init and not Path(args.init).is_file():
-        raise UserError(f"--init {args.init}: no such model file")
     left = 60.0 * args.minutes - (time.perf_counter() - t0)
     floor = max(0.1 * 60.0 * args.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
     fit_minutes = max(left, floor) / 60.0

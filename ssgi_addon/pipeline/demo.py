@@ -114,9 +114,10 @@ def run(args) -> dict:
         model = Path(sys.modules[root_package()].__file__).resolve().parent / "models" / "ssgi_default.pt"
     if not torch_ok:
         missing.append(f"PyTorch: {torch_info} (the SSGI prediction needs it)")
+    fault = cliargs.model_file_fault(model)
+    if fault and args.model:  # a folder, a text file, an image ... named as the model: say what it is
+        raise UserError(f"--model {args.model}: {fault}")
     if not model.is_file():
-        if args.model:
-            raise UserError(f"--model {args.model}: no such model file")
         missing.append(f"the shipped default model {model} is not there yet (train one, or pass --model)")
 
     summary: dict = {"out": str(out), "seed": args.seed, "size": f"{w}x{h}", "model": str(model) if model.is_file() else None,

@@ -36,6 +36,7 @@ import bpy
 import numpy as np
 
 from ...model import channels as ch
+from ...model import cliargs
 from ...model.errors import UserError
 from ..blender import node as ssgi_node
 
@@ -62,9 +63,10 @@ def log(msg: str) -> None:
 def load_model(path: Path):
     """A cached Predictor for ``path`` (reloaded when the file changes). UserError names a missing/bad file."""
     path = Path(path)
-    if not path.is_file():
+    fault = cliargs.model_file_fault(path)
+    if fault:
         hint = " (the shipped default model)" if path == ssgi_node.DEFAULT_MODEL else ""
-        raise UserError(f"{path}: no such model file{hint}; set the SSGI node's model or pass --model")
+        raise UserError(f"{path}: {fault}{hint}; set the SSGI node's model or pass --model")
     try:
         from ...model.learn import checkpoint
     except ImportError as e:  # torch missing in this Blender
@@ -301,8 +303,8 @@ class RenderSession:
         tree = scene.compositing_node_group
         self.nodes = ssgi_node.ssgi_nodes(tree)
         if not self.nodes:
-            raise UserError(f"scene {scene.name!r} has no SSGI node in its compositor: add one (Add > SSGI) or "
-                            f"run 'Set up SSGI' (bpy.ops.ssgi.setup)")
+            raise UserError(f"scene {scene.name!r} has no SSGI node in its compositor: add one (Add > SSGI), "
+                            f"run 'Set up SSGI' (bpy.ops.ssgi.setup), or give `cli.py render` --setup")
         if scene.camera is None:
             raise UserError(f"scene {scene.name!r} has no camera")
         if write and scene.render.image_settings.media_type == "VIDEO":
