@@ -3,7 +3,8 @@
     cli.py render --blend shot.blend --out out/shot_#### --frames 1-48 [--model m.pt] [--json]
 
 The .blend must hold an SSGI node in its compositor (Set up SSGI, or ``--setup`` to do it here). Frames are
-written in the scene's output format; without ``--out`` where the scene's output path says. The .blend itself
+written in the scene's output format, or in the one a known image extension of ``--out`` names (as Blender's
+``-F``: ``--out x.exr`` writes OpenEXR); without ``--out`` where the scene's output path says. The .blend itself
 is never written.
 """
 from __future__ import annotations
@@ -13,6 +14,25 @@ from pathlib import Path
 
 from ...model import cliargs
 from ...model.dataset.exrio import stdout_to_stderr
+
+
+# image formats by file extension, as `blender -F` names them (EXR: single layer, as -F EXR)
+FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".exr": "OPEN_EXR", ".tif": "TIFF", ".tiff": "TIFF",
+           ".bmp": "BMP", ".webp": "WEBP", ".tga": "TARGA", ".hdr": "HDR", ".jp2": "JPEG2000", ".dpx": "DPX",
+           ".cin": "CINEON", ".rgb": "IRIS"}
+_SAME = {"OPEN_EXR_MULTILAYER": "OPEN_EXR", "TARGA_RAW": "TARGA"}  # formats an extension already stands for
+
+
+def format_from_out(scene, out: str | None) -> str | None:
+    """Let a known image extension of ``out`` choose the output format (the .blend is never written). Returns
+    the format switched to, or None when the scene's format already matches or the extension is not known."""
+    fmt = FORMATS.get(Path(out.replace("#", "0")).suffix.lower()) if out else None
+    im = scene.render.image_settings
+    if fmt is None or _SAME.get(im.file_format, im.file_format) == fmt:
+        return None
+    im.media_type = "IMAGE"  # a video scene offers no image formats until its media type is an image
+    im.file_format = fmt
+    return fmt
 
 
 def run(args) -> dict:
@@ -30,6 +50,10 @@ def _run(args) -> dict:
     if args.setup:
         from ...ops.node_ops import setup_scene
         setup_scene(scene, args.model)
+    before = scene.render.image_settings.file_format
+    if format_from_out(scene, args.out):
+        print(f"SSGI render: --out {args.out}: writing {scene.render.image_settings.file_format} (the scene's "
+              f"output format is {before})", file=sys.stderr)
     frames = list(args.frames) if args.frames else [scene.frame_current]
     session = ssgi_render.RenderSession(scene, frames, model=args.model, out=args.out, samples=args.samples,
                                         save_passes=args.save_passes)

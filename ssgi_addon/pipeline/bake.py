@@ -194,6 +194,9 @@ def iter_bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_sample
     w, h = int(size[0]), int(size[1])
     _check_args(w, h, count, ref_samples, shard, scenes)
     target = resolve_ref_target(ref_target_db, denoise)
+    if target is not None and ref_samples < 2:  # no halves to compare: refuse before any work (issue 13)
+        raise UserError(f"--ref-samples {ref_samples}: the {target:g} dB reference target compares two halves, so it "
+                        "needs at least 2 samples; give --ref-samples 2 or more, or --ref-target-db 0 for a fixed count")
     if scenes and scene is not None:
         raise ValueError("--scenes opens each .blend file: it cannot bake into a given scene")
     out = Path(out)
