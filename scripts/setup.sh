@@ -84,9 +84,21 @@ fi
 # in its configured local wheel folder; elsewhere it is on the PyTorch CPU index, tried when the first
 # attempt fails.
 PIP=(.venv/bin/python -m pip install --disable-pip-version-check --no-input -q)
-if ! "${PIP[@]}" -r requirements.lock; then
+# pip's "Location 'file:///...' is ignored: it is neither a file nor a directory" lines (one per package and
+# configured local wheel folder that lacks it: about forty on this machine kind) are noise: hidden. Everything
+# else pip writes to stderr (errors, other warnings) is shown, and pip's exit status is kept.
+PIP_NOISE="^WARNING: Location '[^']*' is ignored: it is neither a file nor a directory\.\$"
+quiet_pip() {
+  local log rc=0
+  log=$(mktemp)
+  "${PIP[@]}" "$@" 2>"$log" || rc=$?
+  grep -v -E "$PIP_NOISE" "$log" >&2 || true
+  rm -f "$log"
+  return "$rc"
+}
+if ! quiet_pip -r requirements.lock; then
   say "pip failed; trying again with the PyTorch CPU index for torch==2.13.0+cpu"
-  "${PIP[@]}" --extra-index-url https://download.pytorch.org/whl/cpu -r requirements.lock
+  quiet_pip --extra-index-url https://download.pytorch.org/whl/cpu -r requirements.lock
 fi
 
 # --- checks --------------------------------------------------------------------------------------------

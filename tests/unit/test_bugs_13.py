@@ -1,9 +1,13 @@
 """Bugs of issue 13 that show without Blender: a model argument that is not a model says what the file is
-(never torch's advice to load it unsafely), and `cli.py bench` checks its files before it times anything.
+(never torch's advice to load it unsafely), `cli.py bench` checks its files before it times anything, and
+`make setup` hides pip's noise but not its news.
 The Blender-side ones (bake --ref-samples, render --out formats and --setup) are tests/blender/test_bugs_13.py."""
 from __future__ import annotations
 
 import argparse
+import shlex
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -67,3 +71,24 @@ def test_bench_checks_every_model_file_before_timing_anything(tmp_path, monkeypa
     with pytest.raises(UserError, match="--out .*does not exist"):
         bench.bench(variants=["unet_s"], sizes=("16x9",), out=str(tmp_path / "no" / "b.json"))
     assert timed == []
+
+
+def test_setup_hides_pips_ignored_location_lines_and_keeps_the_rest():
+    """scripts/setup.sh's quiet_pip, run with a stand-in pip: the ~40 "Location ... is ignored" lines go, any
+    other warning and the errors stay, and pip's exit status is kept."""
+    script = (ROOT / "scripts" / "setup.sh").read_text()
+    start = script.index("PIP_NOISE=")
+    fn = script[start:script.index("\n}\n", start) + 3]
+    fake = ("import sys\n"
+            "for p in ('bpy', 'certifi'):\n"
+            "    print(f\"WARNING: Location 'file:///opt/pypi/simple/{p}/' is ignored: it is neither a file nor a "
+            "directory.\", file=sys.stderr)\n"
+            "print('WARNING: Retrying after a broken connection', file=sys.stderr)\n"
+            "print('ERROR: No matching distribution found for bpy==9', file=sys.stderr)\n"
+            "sys.exit(3)\n")
+    code = fn + f"PIP=({shlex.quote(sys.executable)} -c {shlex.quote(fake)})\nquiet_pip -r x.lock; echo \"rc=$?\"\n"
+    p = subprocess.run(["bash", "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.stdout.strip() == "rc=3", (p.stdout, p.stderr)
+    assert "is ignored" not in p.stderr, p.stderr
+    assert p.stderr.splitlines() == ["WARNING: Retrying after a broken connection",
+                                     "ERROR: No matching distribution found for bpy==9"], p.stderr
