@@ -8,13 +8,8 @@ with ``--also-filtered``, with Cycles' default 1.5 px pixel filter too (how it w
 import argparse
 import json
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
-import bpy  # noqa: E402
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import numpy as np  # noqa: E402
 
 from ssgi.model.cliargs import parse_size  # noqa: E402
@@ -26,8 +21,7 @@ ap.add_argument("--spp", type=int, default=256, help="Cycles samples (default 25
 ap.add_argument("--size", type=parse_size, default=(96, 54))
 ap.add_argument("--also-filtered", action="store_true", help="also against Cycles' 1.5 px filter")
 a = ap.parse_args()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
+scene = _bootstrap.empty_scene()
 
 
 def ratios(e, c):

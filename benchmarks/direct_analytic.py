@@ -7,13 +7,8 @@ of distance from the foot of the light. Orthographic camera looking down, 96x96,
 """
 import argparse
 import math
-import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -26,8 +21,7 @@ ap.add_argument("--cone", type=float, default=113.0, help="spot cone angle (deg)
 ap.add_argument("--blend", type=float, default=0.49, help="spot blend")
 ap.add_argument("--spp", type=int, default=256)
 a = ap.parse_args()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-sc = bpy.context.scene
+sc = _bootstrap.empty_scene()
 N, half = 96, 1.0
 bpy.ops.mesh.primitive_plane_add(size=2 * half)
 bpy.context.object.data.materials.append(room.diffuse_material("white", (0.8, 0.8, 0.8)))

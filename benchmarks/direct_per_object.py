@@ -5,14 +5,8 @@ and a PNG: EEVEE | Cycles | difference (red: EEVEE brighter, blue: darker).
     .venv/bin/python benchmarks/direct_per_object.py --room 13 --filter 1.5 --png /tmp/room13.png
 """
 import argparse
-import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
-import bpy  # noqa: E402
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
@@ -24,8 +18,7 @@ ap.add_argument("--filter", type=float, default=1.5, help="Cycles pixel filter w
 ap.add_argument("--spp", type=int, default=256)
 ap.add_argument("--png", default=None)
 a = ap.parse_args()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-sc = bpy.context.scene
+sc = _bootstrap.empty_scene()
 room.build_room(a.room, sc)
 passes.set_resolution(sc, 96, 54)
 objs = [o for o in sc.objects if o.type == "MESH"]

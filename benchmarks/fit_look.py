@@ -1,20 +1,16 @@
 """Contact sheet of a fitted model on its held-out test views: EEVEE direct | generic | fitted | Cycles.
 
-    .venv/bin/python docs/fit_look.py MODEL.pt OUT.png [--scale 2]
+    .venv/bin/python benchmarks/fit_look.py MODEL.pt OUT.png [--scale 2]
 
 Reads the views folder, the test keys and the generic model's path from the checkpoint's fit report
 (bpy-free); the generic column is left out when the fit had no generic model. Prints each view's PSNR.
 """
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
+import _bootstrap  # noqa: E402, F401  (the checkout as package ssgi)
 from ssgi.model.learn import checkpoint
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402

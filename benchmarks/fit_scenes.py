@@ -1,6 +1,6 @@
 """Benchmark scenes for docs/fit.md: a Cornell-box-style room with a short camera move.
 
-    .venv/bin/python docs/fit_scenes.py cornell OUT.blend
+    .venv/bin/python benchmarks/fit_scenes.py cornell OUT.blend
 
 (The cluttered random room comes from `cli.py randomize --seed N --save F.blend`.)
 """
@@ -8,10 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import bpy  # noqa: E402
 
 
@@ -46,8 +43,7 @@ def box(name, loc, dims, rot_z, mat):
 
 
 def cornell(out: str) -> None:
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    sc = bpy.context.scene
+    sc = _bootstrap.empty_scene()
     white, red, green = diffuse("white", (0.73, 0.73, 0.73)), diffuse("red", (0.65, 0.05, 0.05)), diffuse("green", (0.12, 0.45, 0.15))
     h = math.pi / 2
     plane("floor", (0, 0, 0), (0, 0, 0), 2, white)

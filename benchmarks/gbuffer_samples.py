@@ -21,11 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
-import bpy  # noqa: E402
+import _bootstrap  # noqa: E402, F401  (the checkout as package ssgi)
 import numpy as np  # noqa: E402
 
 from ssgi.model import channels as ch  # noqa: E402

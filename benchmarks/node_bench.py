@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Benchmark and look at the SSGI render path on a random room with a camera move (see docs/node.md).
 
-    .venv/bin/python docs/node_bench.py --seed 3 --size 240x135 --frames 3 --model M.pt --out out/node_bench \
+    .venv/bin/python benchmarks/node_bench.py --seed 3 --size 240x135 --frames 3 --model M.pt --out out/node_bench \
         [--cycles-samples 64] [--png]
 
 Builds room SEED (ssgi_addon/room.py), animates the camera over FRAMES frames, runs Set up SSGI, saves
@@ -19,8 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 
 
 def srgb(x):
@@ -40,31 +39,24 @@ def main() -> int:
     ap.add_argument("--png", action="store_true")
     a = ap.parse_args()
 
-    import cli
-    pkg = cli.load_package()
-    from importlib import import_module
-    with import_module(f"{pkg.__name__}.ssgi_addon.commands.render").stdout_to_stderr():  # stdout: JSON only
-        summary = bench(a, pkg)
+    from ssgi.model.dataset.exrio import stdout_to_stderr
+    with stdout_to_stderr():  # stdout: JSON only
+        summary = bench(a)
     print(json.dumps(summary, indent=1, default=str))
     return 0
 
 
-def bench(a, pkg) -> dict:
+def bench(a) -> dict:
     import bpy
     import numpy as np
-    from importlib import import_module
-    room = import_module(f"{pkg.__name__}.ssgi_addon.blender.room")
-    render = import_module(f"{pkg.__name__}.ssgi_addon.pipeline.render")
-    passes = import_module(f"{pkg.__name__}.ssgi_addon.blender.passes")
-    node_ops = import_module(f"{pkg.__name__}.ops.node_ops")
+    from ssgi.ops import node_ops
+    from ssgi.ssgi_addon.blender import passes
+    from ssgi.ssgi_addon.pipeline import render
 
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     w, h = (int(v) for v in a.size.lower().split("x"))
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    room.build_room(a.seed, scene)
-    passes.set_resolution(scene, w, h)
+    ((_, scene),) = _bootstrap.rooms([a.seed], (w, h))
     scene.eevee.taa_render_samples = 1
     cam = scene.camera
     # a camera move: a slow pan (yaw) and a small dolly sideways along the camera's own x axis

@@ -10,18 +10,13 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
-import bpy  # noqa: E402
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import numpy as np  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
-from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
+from ssgi.ssgi_addon.blender import passes  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])
@@ -31,12 +26,8 @@ ap.add_argument("--raw", action="store_true", help="also without OIDN")
 ap.add_argument("--raw-only", action="store_true", help="only without OIDN")
 a = ap.parse_args()
 MODES = [False] if a.raw_only else ([True, False] if a.raw else [True])
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
 rows = []
-for r in a.rooms:
-    room.build_room(r, scene)
-    passes.set_resolution(scene, *a.size)
+for r, scene in _bootstrap.rooms(a.rooms, a.size):
     for spp in a.spp:
         for dn in MODES:
             imgs, ts = [], []

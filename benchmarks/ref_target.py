@@ -11,18 +11,12 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import cli  # noqa: E402
-
-cli.load_package()
-import bpy  # noqa: E402
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
 from ssgi.ssgi_addon.pipeline import bake
-from ssgi.ssgi_addon.blender import passes, room  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])
@@ -30,12 +24,8 @@ ap.add_argument("--target", type=float, default=bake.DEFAULT_REF_TARGET_DB)
 ap.add_argument("--ref-samples", type=int, default=bake.DEFAULT_REF_SAMPLES, help="most samples")
 ap.add_argument("--size", type=parse_size, default=(240, 135))
 a = ap.parse_args()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
 rows = []
-for r in a.rooms:
-    room.build_room(r, scene)
-    passes.set_resolution(scene, *a.size)
+for r, scene in _bootstrap.rooms(a.rooms, a.size):
     refs, infos, secs = [], [], []
     for s in (r * 2 + 1000, r * 2 + 1001):  # disjoint seed sets (bake.REF_SEED_STRIDE)
         t = time.perf_counter()

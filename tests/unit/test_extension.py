@@ -58,3 +58,13 @@ def test_build_zip_contents(built_zip):
     for f in tracked:
         if f.split("/")[0] in ("ssgi_addon", "ops", "panels", "model"):
             assert f in names, f
+
+
+def test_built_zip_holds_no_benchmarks_docs_tests_or_dev_scripts(built_zip):
+    """blender_manifest.toml's [build] leaves the side code out of the extension: measurements and tool scripts
+    (benchmarks/), documentation (docs/), tests and their fixtures (tests/), dev scripts (scripts/)."""
+    names = zipfile.ZipFile(built_zip).namelist()
+    for side in ("benchmarks/", "docs/", "tests/", "scripts/"):
+        assert (ROOT / side).is_dir(), side  # the checkout has them: the test means something
+        assert not [n for n in names if n.startswith(side)], side
+    assert not [n for n in names if n.endswith(".blend")], names
