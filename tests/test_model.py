@@ -1,5 +1,6 @@
 """model/: normalisation, networks, metrics, checkpoints and the predictor (bpy-free, in process, fast)."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -338,3 +339,77 @@ def test_datasets_from_before_the_world_group_still_read_verify_and_feed_trainin
     (new / "manifest.json").write_text(__import__("json").dumps({**m, "channel_spec": ch.describe()}))
     problems = dataset.verify(new)
     assert problems and all("world.R" in p for p in problems) and "000000.exr" in problems[0]
+
+
+# ---------------------------------------------------------------- files: one atomic writer, one temp pattern, one sweeper
+
+def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
+    """Every file the model side writes goes through files.atomic_write: its os.replace always moves a
+    ``.FINAL.PID.tmp`` beside the final file onto the final name (a writer with its own temp name fails)."""
+    import os
+
+    from ssgi.model import files
+    from ssgi.model.dataset import exrio, folder as dataset, synthetic
+    from ssgi.model.evaluate import report
+    from ssgi.model.infer import predict
+    from ssgi.model.learn import train
+    moves = []
+    real = os.replace
+    monkeypatch.setattr(os, "replace", lambda a, b: (moves.append((Path(a), Path(b))), real(a, b))[1])
+    d = synthetic.make_dataset(tmp_path / "ds", scenes=1, per_scene=1, w=8, h=6)
+    exrio.write_sample(tmp_path / "s.exr", synthetic.sample(8, 6, 0, 0))
+    dataset.write_manifest(d, dataset.load_manifest(d), "manifest.shard-0-of-2.json")
+    dataset.preview(d, tmp_path / "sheet.png")
+    net = _net("fssgi")
+    checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
+    predict.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
+    report.write_json(tmp_path / "r.json", {"a": math.inf})
+    train.curve_png([dict(minutes=0.1, val_psnr=20.0, val_tm_psnr=21.0)], tmp_path / "c.png")
+    assert len(moves) >= 9
+    for src, dst in moves:
+        m = files.TEMP_RE.match(src.name)
+        assert m and m.group("final") == dst.name and int(m.group("pid")) == os.getpid() and src.parent == dst.parent
+    assert not [p for p in tmp_path.rglob("*") if files.TEMP_RE.match(p.name)]
+
+
+def test_atomic_write_keeps_the_old_file_when_the_writer_fails(tmp_path):
+    from ssgi.model import files
+    p = files.write_text(tmp_path / "a.json", "old")
+
+    def broken(tmp):
+        Path(tmp).write_text("half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        files.atomic_write(p, broken)
+    assert p.read_text() == "old" and sorted(x.name for x in tmp_path.iterdir()) == ["a.json"]
+
+
+def test_sweep_removes_only_temp_files_owned_and_old_of_dead_processes(tmp_path):
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from ssgi.model import files
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    names = [".000001.exr.424242.tmp", ".000002.exr.424242.tmp", ".manifest.json.7.tmp", "000001.exr",
+             ".hidden", "x.tmp", f".000003.exr.{child.pid}.tmp", f".000004.exr.{os.getpid()}.tmp"]
+    for n in names:
+        (tmp_path / n).write_bytes(b"")
+    # owned: a shard sweeps only its own names
+    assert files.sweep(tmp_path, owned=lambda n: n == "000002.exr") == [".000002.exr.424242.tmp"]
+    # min_age_s: the dead process's file only once old; never this process's own
+    assert files.sweep(tmp_path, min_age_s=600) == []
+    old = time.time() - 1200
+    for n in names[:1] + names[6:]:
+        os.utime(tmp_path / n, (old, old))
+    swept = files.sweep(tmp_path, min_age_s=600)
+    assert f".000003.exr.{child.pid}.tmp" in swept and f".000004.exr.{os.getpid()}.tmp" not in swept
+    # no options: every temporary file goes, no final name, nothing outside the pattern
+    files.sweep(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["000001.exr", ".hidden", "x.tmp"])
+    s = files.scratch("ssgi-render", ".exr", folder=tmp_path)
+    m = files.TEMP_RE.match(s.name)
+    assert m and m.group("final").startswith("ssgi-render-") and m.group("final").endswith(".exr")

@@ -18,15 +18,12 @@ neither key.
 from __future__ import annotations
 
 import json
-import math
-import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, files
 from . import exrio
 from ..errors import UserError
 
@@ -81,14 +78,7 @@ def load_manifest(folder) -> dict:
 
 
 def write_manifest(folder, manifest: dict, name: str = MANIFEST) -> None:
-    path = Path(folder) / name
-    tmp = exrio.atomic_path(path)
-    try:
-        tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=float))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    files.write_json(Path(folder) / name, manifest, indent=1, sort_keys=True, default=float)
 
 
 def check_compatible(manifest: dict, settings: dict, where) -> None:
@@ -106,11 +96,9 @@ def _check_writable(folder: Path) -> None:
     """Write and delete a probe file: os.access says yes to root even on folders that refuse every write
     (read-only mounts aside), so only a real write tells."""
     try:
-        fd, probe = tempfile.mkstemp(dir=folder, prefix=".ssgi-write-test-", suffix=".tmp")
+        files.scratch("ssgi-write-test", folder=folder).unlink()
     except OSError as e:
         raise UserError(f"--out {folder}: folder is not writable ({e.strerror})") from None
-    os.close(fd)
-    os.unlink(probe)
 
 
 def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> dict:
@@ -143,24 +131,6 @@ def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> 
             raise UserError(f"--out {folder}: not empty and not an SSGI dataset (holds {', '.join(sorted(foreign)[:5])}); "
                             f"choose an empty or new folder")
     return new_manifest(settings, blender_version)
-
-
-TEMP_RE = re.compile(r"^\.(.+)\.\d+\.tmp$")  # exrio.atomic_path: .FINAL_NAME.PID.tmp
-
-
-def remove_temp_files(folder, owned=None) -> int:
-    """Delete temporary files a killed job left behind (never final names). Returns how many.
-
-    ``owned(final_name) -> bool`` limits this to the files a job owns (a shard's samples and manifest), so that
-    a shard (re)started beside a running one never deletes the other's file in flight."""
-    n = 0
-    for p in Path(folder).glob(".*.tmp"):
-        m = TEMP_RE.match(p.name)
-        if owned is not None and not (m and owned(m.group(1))):
-            continue
-        p.unlink(missing_ok=True)
-        n += 1
-    return n
 
 
 def stored_groups(manifest: dict) -> tuple[str, ...]:
@@ -224,14 +194,14 @@ def verify(folder) -> list[str]:
     except UserError as e:
         return [str(e)]
     size = m.get("settings", {}).get("size")
-    files = {SAMPLE_RE.match(p.name).group(1): p for p in folder.iterdir() if SAMPLE_RE.match(p.name)}
-    for name in sorted(set(m["samples"]) - set(files)):
+    found = {SAMPLE_RE.match(p.name).group(1): p for p in folder.iterdir() if SAMPLE_RE.match(p.name)}
+    for name in sorted(set(m["samples"]) - set(found)):
         problems.append(f"{sample_path(folder, name)}: listed in the manifest but missing")
-    for name in sorted(set(files) - set(m["samples"])):
-        problems.append(f"{files[name]}: not listed in the manifest (incomplete sample?)")
-    for name in sorted(set(files) & set(m["samples"])):
-        problems.extend(check_sample(files[name], size, stored_groups(m)))
-    temps = sorted(p.name for p in folder.glob(".*.tmp"))
+    for name in sorted(set(found) - set(m["samples"])):
+        problems.append(f"{found[name]}: not listed in the manifest (incomplete sample?)")
+    for name in sorted(set(found) & set(m["samples"])):
+        problems.extend(check_sample(found[name], size, stored_groups(m)))
+    temps = sorted(p.name for p in folder.iterdir() if files.TEMP_RE.match(p.name))
     if temps:
         problems.append(f"{folder}: temporary file(s) left over: {', '.join(temps[:5])}")
     return problems
@@ -293,9 +263,6 @@ def preview(folder, out, max_samples: int = 12) -> dict:
     w = sheet.shape[1] // len(cols)
     for i, c in enumerate(cols):
         d.text((i * w + 3, 1), c, fill=(255, 255, 255))
-    out = Path(out)
-    tmp = exrio.atomic_path(out)
-    img.save(tmp, format="PNG")
-    os.replace(tmp, out)
+    out = files.atomic_write(out, lambda tmp: img.save(tmp, format="PNG"))
     return {"sheet": str(out), "samples": len(names)}
 

@@ -10,13 +10,11 @@ settings, samples{key: seed, scene, camera, frame, timings}) and ``000000.exr`` 
 """
 from __future__ import annotations
 
-import json
-import os
 from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, files
 from . import exrio
 
 
@@ -70,7 +68,5 @@ def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int 
             k += 1
     m = dict(format_version=ch.FORMAT_VERSION, blender_version="synthetic", channel_spec=ch.describe(),
              settings=dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), samples=samples)
-    tmp = root / f".manifest.json.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(m, indent=1))
-    os.replace(tmp, root / "manifest.json")
+    files.write_json(root / "manifest.json", m, indent=1)
     return root

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import metrics
+from .. import files, metrics
 from ..errors import UserError
 
 FAMILIES = {  # family -> (label, colour, marker)
@@ -377,19 +377,6 @@ def targets(raw) -> dict:
 # ------------------------------------------------------------------------------------------------ outputs
 
 
-def atomic_write(path, write) -> Path:
-    """Call ``write(tmp_path)`` and rename the result to ``path``."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
-
-
 def _json_default(o):
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
@@ -412,8 +399,7 @@ def _finite_or_str(o):
 
 
 def write_json(path, raw: dict) -> Path:
-    text = json.dumps(_finite_or_str(raw), indent=1, default=_json_default, allow_nan=False)
-    return atomic_write(path, lambda p: Path(p).write_text(text))
+    return files.write_json(path, _finite_or_str(raw), indent=1, default=_json_default, allow_nan=False)
 
 
 def machine() -> dict:
@@ -462,7 +448,7 @@ def _save_fig(fig, path) -> Path:
     """Write a matplotlib figure as PNG atomically and close it."""
     import matplotlib.pyplot as plt
     try:
-        return atomic_write(path, lambda p: fig.savefig(p, format="png"))
+        return files.atomic_write(path, lambda p: fig.savefig(p, format="png"))
     finally:
         plt.close(fig)
 
@@ -696,18 +682,18 @@ def write_outputs(raw: dict, images: dict, out) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     analyse(raw)
     ex = example_scene(raw, images)
-    files = {}
+    written = {}
     if ex is not None:
         tiles, err = example_tiles(raw, images[ex])
-        files["examples"] = str(examples_png(tiles, out / "examples.png", err=err,
+        written["examples"] = str(examples_png(tiles, out / "examples.png", err=err,
                                              title=f"scene {ex}: each method; Cycles at equal time to the default model "
                                                    f"(tonemapped x/(1+x), sRGB; box = 2x crop below)"))
         raw["example_scene"] = ex
-    files["pareto"] = str(pareto_png(raw, out / "pareto.png"))
-    raw["files"] = dict(files, json=str(out / "report.json"), md=str(out / "report.md"))
-    files["md"] = str(atomic_write(out / "report.md", lambda p: Path(p).write_text(report_md(raw))))
-    files["json"] = str(write_json(out / "report.json", raw))
-    return files
+    written["pareto"] = str(pareto_png(raw, out / "pareto.png"))
+    raw["files"] = dict(written, json=str(out / "report.json"), md=str(out / "report.md"))
+    written["md"] = str(files.write_text(out / "report.md", report_md(raw)))
+    written["json"] = str(write_json(out / "report.json", raw))
+    return written
 
 
 def example_scene(raw, images):

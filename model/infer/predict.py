@@ -6,13 +6,12 @@ curve, 8 bit. When the sample holds a reference (``ref``), the PSNR of the predi
 """
 from __future__ import annotations
 
-import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, files
 from ..dataset import exrio
 from .. import metrics
 from ..errors import UserError
@@ -28,14 +27,7 @@ def srgb8(lin: np.ndarray, exposure: float = 1.0) -> np.ndarray:
 def write_png(path, img8: np.ndarray) -> None:
     from PIL import Image
 
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        Image.fromarray(img8).save(tmp, format="PNG")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    files.atomic_write(path, lambda tmp: Image.fromarray(img8).save(tmp, format="PNG"))
 
 
 def write_rgb_exr(path, rgb: np.ndarray, half: bool = False) -> None:

@@ -15,12 +15,11 @@ A checkpoint is a ``torch.save`` file of plain data (loaded with ``weights_only=
     created, versions
     train_state      (only in the ``.last.pt`` resume file) optimizer, RNG states, step, epoch, elapsed
 
-Files are written to a temporary name in the same folder and renamed (``os.replace``) when complete.
+Files are written atomically (``files.atomic_write``).
 """
 from __future__ import annotations
 
 import datetime
-import os
 import pickle
 import sys
 from pathlib import Path
@@ -28,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .. import channels as ch
+from .. import channels as ch, files
 from . import network
 from .. import normalize
 from ..errors import UserError
@@ -77,13 +76,7 @@ def save(path, ckpt: dict) -> None:
         raise UserError(f"{path}: refusing to save non-finite weights (the last good checkpoint is kept)")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        torch.save(ckpt, tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    files.atomic_write(path, lambda tmp: torch.save(ckpt, tmp))
 
 
 def load(path) -> dict:

@@ -13,7 +13,6 @@ Train and validation are split by scene (``split_scenes``): samples of one scene
 from __future__ import annotations
 
 import hashlib
-import json
 import random
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -36,12 +36,10 @@ drops normals (``normalize.to_inputs``), so a model that keeps depth but drops n
 """
 from __future__ import annotations
 
-import json
 import math
-import os
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +49,7 @@ from .. import channels as ch
 from ..infer import bench
 from . import checkpoint, data, network
 from ..dataset import exrio
-from .. import metrics, normalize
+from .. import files, metrics, normalize
 from ..errors import UserError
 from .train import TrainConfig, Trainer, evaluate
 
@@ -600,8 +598,8 @@ class Fitter:
         ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}
         checkpoint.save(self.out, ck)
         jpath, mpath = report_paths(self.out)
-        _atomic_write(jpath, json.dumps(report, indent=1))
-        _atomic_write(mpath, report_markdown(report, self.out))
+        files.write_json(jpath, report, indent=1)
+        files.write_text(mpath, report_markdown(report, self.out))
         self.log(f"wrote {self.out} (inputs {ch.format_spec(spec)}), {jpath.name}, {mpath.name}")
         self.log(verdict)
         self._report("done", verdict)
@@ -649,16 +647,6 @@ def _plain(x):
 def report_paths(model) -> tuple[Path, Path]:
     m = Path(model)
     return m.with_name(m.stem + ".fit_report.json"), m.with_name(m.stem + ".fit_report.md")
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def _n(v, fmt="{:.2f}"):

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import copy
 import math
-import re
 import sys
 import time
 from dataclasses import asdict, dataclass, field
@@ -45,7 +44,7 @@ import torch
 
 from .. import channels as ch
 from . import checkpoint, data, network
-from .. import metrics, normalize
+from .. import files, metrics, normalize
 from ..errors import UserError
 
 SNAPSHOT_EVERY = 50
@@ -150,11 +149,10 @@ def _finish_plot(fig, ax, path, title, ylabel, fontsize=None, xlabel="training m
     ax.grid(alpha=0.3)
     ax.legend(fontsize=fontsize)
     fig.tight_layout()
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        files.atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+    finally:
+        plt.close(fig)
 
 
 class Trainer:
@@ -168,13 +166,10 @@ class Trainer:
 
     # ---- state -------------------------------------------------------------------------------------
     def _remove_stale_temps(self):
-        """Delete the temporary files a killed run left beside this run's outputs (checkpoint.save's
-        ``.NAME.PID.tmp``, curve_png's ``.NAME.tmp.png``): this run owns those names (issue 7, case 9)."""
-        names = "|".join(re.escape(p.name) for p in (self.out, self.last, checkpoint.curve_path(self.out)))
-        if self.out.parent.is_dir():
-            for f in self.out.parent.iterdir():
-                if re.fullmatch(rf"\.({names})\.(\d+\.tmp|tmp\.png)", f.name):
-                    f.unlink(missing_ok=True)
+        """Delete the temporary files a killed run left beside this run's outputs: this run owns those names
+        (issue 7, case 9)."""
+        names = {p.name for p in (self.out, self.last, checkpoint.curve_path(self.out))}
+        files.sweep(self.out.parent, owned=names.__contains__)
 
     def _setup(self):
         cfg = self.cfg

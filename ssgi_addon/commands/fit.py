@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from ...model import cliargs
+from ...model import cliargs, files
 from ...model.errors import UserError
 
 
@@ -94,7 +94,7 @@ def _run(args) -> dict:
         tag = _views_tag(blend, plan)
         wblend = work / f"views-{tag}.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(wblend), copy=True)
-        _write_json(work / "views_plan.json", plan)
+        files.write_json(work / "views_plan.json", plan, default=str)
         data_dir = work / f"views-{tag}"
         progress(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
         sfit.bake_views(wblend, data_dir, plan, size, ref_samples=args.ref_samples)
@@ -129,7 +129,7 @@ def _run(args) -> dict:
         rp = Path(res["report"])
         rep = json.loads(rp.read_text())
         rep.update(bake_minutes=res["bake_minutes"], total_minutes=res["total_minutes"])
-        _write_json(rp, rep)
+        files.write_json(rp, rep, default=str)
     return res
 
 
@@ -157,13 +157,6 @@ def _ladder(text: str) -> list:
         return v
     except (ValueError, AssertionError):
         raise UserError(f"--ladder must be a JSON list of [name, variant, {{overrides}}], got {text!r}") from None
-
-
-def _write_json(path: Path, obj) -> None:
-    import os
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(obj, indent=1, default=str))
-    os.replace(tmp, path)
 
 
 def register_cli(sub) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 from ...model import channels as ch
 from ...model.dataset import folder as ds
 from ...model.dataset import exrio
-from ...model import metrics
+from ...model import files, metrics
 from ...model.errors import UserError
 from ..blender import passes, room
 
@@ -220,7 +220,7 @@ def iter_bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_sample
         m = ds.SAMPLE_RE.match(final_name)
         return final_name == mname if m is None else (shard is None or int(m.group(1)) % shard[1] == shard[0])
 
-    removed = ds.remove_temp_files(out, owned)
+    removed = len(files.sweep(out, owned))
     todo = [(i, info) for i, info in jobs if not _complete(out, ds.sample_name(i), manifest)]
     skipped = len(jobs) - len(todo)
     if not todo:  # nothing to bake: still leave a manifest (e.g. --count 0)
