@@ -285,7 +285,7 @@ bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 
 
 def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_fit):
-    from ssgi.model.learn import data
+    from ssgi.model.dataset import folder as data_folder
     s = scene_fit["summary"]
     assert s["ok"] and s["status"] == "done"
     work = scene_fit["dir"] / "room_fit.fit"
@@ -296,7 +296,7 @@ def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_f
     jit = {c: r for c, r in cams.items() if c != "Camera"}
     assert len(jit) == 3 and sorted(jit.values()) == ["test", "train", "val"]
     (views,) = [p for p in work.glob("views-*") if p.is_dir()]
-    m = data.read_manifest(views)
+    m = data_folder.open_folder(views, scenes=True)
     assert s["views"] == str(views)
     got = sorted((v["camera"], v["frame"]) for v in m["samples"].values())
     assert got == sorted((c, f) for c in cams for f in (1, 3))  # every camera at every frame: 8 views

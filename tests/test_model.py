@@ -319,11 +319,11 @@ def test_datasets_from_before_the_world_group_still_read_verify_and_feed_trainin
     from ssgi.model.learn import data
     from ssgi.model.dataset import folder as dataset, exrio, synthetic
     new = synthetic.make_dataset(tmp_path / "new", scenes=2, per_scene=1, w=16, h=8)
-    assert "world" in dataset.stored_groups(dataset.load_manifest(new))
+    assert "world" in dataset.stored_groups(dataset.open_folder(new))
     assert dataset.verify(new) == []
     old = synthetic.make_dataset(tmp_path / "old", scenes=2, per_scene=1, w=16, h=8)
     _strip_world(old)
-    assert dataset.stored_groups(dataset.load_manifest(old)) == tuple(g for g in ch.SAMPLE_GROUPS if g != "world")
+    assert dataset.stored_groups(dataset.open_folder(old)) == tuple(g for g in ch.SAMPLE_GROUPS if g != "world")
     assert dataset.verify(old) == []
     assert "world" not in exrio.read_sample(old / "000000.exr") and "world" in exrio.read_sample(new / "000000.exr")
     # the inputs without `world` load from the old dataset; asking for `world` names the file and channel
@@ -335,7 +335,7 @@ def test_datasets_from_before_the_world_group_still_read_verify_and_feed_trainin
         exrio.read_sample(old / "000000.exr", ("world",))
     # a new dataset whose sample lost its world channels is caught by verify, naming the file
     _strip_world(new)
-    m = dataset.load_manifest(old)
+    m = dataset.open_folder(old)
     (new / "manifest.json").write_text(__import__("json").dumps({**m, "channel_spec": ch.describe()}))
     problems = dataset.verify(new)
     assert problems and all("world.R" in p for p in problems) and "000000.exr" in problems[0]
@@ -349,7 +349,7 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     import os
 
     from ssgi.model import files
-    from ssgi.model.dataset import exrio, folder as dataset, synthetic
+    from ssgi.model.dataset import exrio, folder as dataset, preview, synthetic
     from ssgi.model.evaluate import report
     from ssgi.model.infer import predict
     from ssgi.model.learn import train
@@ -358,8 +358,8 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     monkeypatch.setattr(os, "replace", lambda a, b: (moves.append((Path(a), Path(b))), real(a, b))[1])
     d = synthetic.make_dataset(tmp_path / "ds", scenes=1, per_scene=1, w=8, h=6)
     exrio.write_sample(tmp_path / "s.exr", synthetic.sample(8, 6, 0, 0))
-    dataset.write_manifest(d, dataset.load_manifest(d), "manifest.shard-0-of-2.json")
-    dataset.preview(d, tmp_path / "sheet.png")
+    dataset.write_manifest(d, dataset.open_folder(d), "manifest.shard-0-of-2.json")
+    preview.preview(d, tmp_path / "sheet.png")
     net = _net("fssgi")
     checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
     predict.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
@@ -413,3 +413,42 @@ def test_sweep_removes_only_temp_files_owned_and_old_of_dead_processes(tmp_path)
     s = files.scratch("ssgi-render", ".exr", folder=tmp_path)
     m = files.TEMP_RE.match(s.name)
     assert m and m.group("final").startswith("ssgi-render-") and m.group("final").endswith(".exr")
+
+
+# ---------------------------------------------------------------- the dataset format's one owner
+
+def test_settings_schema_writes_every_identity_key_and_one_entry_reads_folders(tmp_path):
+    """model/dataset/folder.py builds the settings the baker writes: every key that decides whether samples
+    may share a folder (IDENTITY_SETTINGS) is in them, and differing settings are refused; open_folder is the
+    one entry for a folder (shards while a farm bake runs, scene ids for the split)."""
+    import json
+
+    from ssgi.model.dataset import folder as dataset, synthetic
+    eevee = {"world": "black"}
+    rooms = dataset.settings("rooms", (32, 18), 2, False, 1, diffuse_bounces=3, eevee=eevee, first_seed=5)
+    scenes = dataset.settings("scenes", (32, 18), 2, True, 1, diffuse_bounces=3, eevee=eevee, scenes=["a.blend"],
+                              frames=[1, 2], ref_target_db=41.0)
+    for s in (rooms, scenes):
+        assert set(dataset.IDENTITY_SETTINGS) - set(s) <= {"first_seed", "scenes", "frames"}
+    assert set(dataset.IDENTITY_SETTINGS) <= set(rooms) | set(scenes)
+    assert rooms["eevee"] == eevee and scenes["cycles"]["denoiser"] == "OPENIMAGEDENOISE"
+    with pytest.raises(UserError, match=r"baked with ref_samples=2 \(not ref_samples=3\)"):
+        dataset.check_compatible({"settings": rooms}, dict(rooms, ref_samples=3), "here")
+    d = synthetic.make_dataset(tmp_path / "d", scenes=2, per_scene=1, w=8, h=8)
+    assert dataset.sample_path(d, "000001") == d / "000001.exr" and (d / "000001.exr").is_file()
+    m = dataset.open_folder(d, scenes=True)
+    assert sorted(m["samples"]) == ["000000", "000001"] and dataset.manifest_sha256(d)
+    # a farm bake before its merge: the shard manifests' union, only when asked for
+    for i, key in enumerate(sorted(m["samples"])):
+        dataset.write_manifest(d, dict(m, samples={key: m["samples"][key]}), dataset.shard_manifest_name((i, 2)))
+    (d / "manifest.json").unlink()
+    assert dataset.open_folder(d, shards=True)["samples"] == m["samples"]
+    with pytest.raises(UserError, match=r"manifest\.json: no manifest\.json in the dataset folder"):
+        dataset.open_folder(d)
+    with pytest.raises(UserError, match=r"nope: dataset folder does not exist"):
+        dataset.open_folder(tmp_path / "nope")
+    dataset.write_manifest(d, dict(m, samples={"000000": {"seed": 1}}))
+    assert dataset.open_folder(d)["samples"] == {"000000": {"seed": 1}}
+    with pytest.raises(UserError, match=r"sample '000000' has no 'scene' id"):
+        dataset.open_folder(d, scenes=True)
+    assert json.loads((d / "manifest.json").read_text())["format_version"] == ch.FORMAT_VERSION

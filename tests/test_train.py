@@ -53,21 +53,21 @@ def test_dataset_errors_name_the_file(tmp_path, dataset_dir):
     (d / "manifest.json").write_text(json.dumps(m))
     with pytest.raises(UserError, match=r"manifest.json: manifest format_version \d+ is newer"):
         data.DatasetFolder.load(d)
-    # one reader of the format (model/dataset.read_manifest) serves training, the baker and verify alike
+    # one reader of the format (model/dataset/folder.open_folder) serves training, the baker and verify alike
     for bad, says in ((ch.FORMAT_VERSION - 1, rf"format_version {ch.FORMAT_VERSION - 1} is older than "
                        rf"{ch.FORMAT_VERSION}; re-bake"), ("3", r"has no integer 'format_version' \('3'\)"),
                       (True, r"has no integer 'format_version' \(True\)")):
         (d / "manifest.json").write_text(json.dumps(dict(m, format_version=bad)))
-        for read in (data.read_manifest, lambda root: ds_mod.load_manifest(root)):
+        for read in (lambda root: ds_mod.open_folder(root, scenes=True), ds_mod.open_folder):
             with pytest.raises(UserError, match=r"manifest.json: manifest " + says):
                 read(d)
     (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION, samples=[])))
     with pytest.raises(UserError, match=r"manifest.json: not an SSGI dataset manifest .*no 'samples' table"):
-        data.read_manifest(d)
+        ds_mod.open_folder(d, scenes=True)
     (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION,
                                                      samples={"000000": {"seed": 1}})))
     with pytest.raises(UserError, match=r"manifest.json: sample '000000' has no 'scene' id"):
-        data.read_manifest(d)
+        ds_mod.open_folder(d, scenes=True)
     m["format_version"] = ch.FORMAT_VERSION
     (d / "manifest.json").write_text(json.dumps(m))
     (d / "000001.exr").unlink()
@@ -101,7 +101,7 @@ def test_training_learns_and_writes_checkpoints(tmp_path, dataset_dir):
     assert max(h["val_psnr"] for h in hist) > hist[0]["val_psnr"]
     assert ck["best"]["val_psnr"] == max(h["val_psnr"] for h in hist)
     assert ck["dataset"]["split"]["val"] and set(ck["dataset"]["split"]["val"]).isdisjoint(ck["dataset"]["split"]["train"])
-    assert ck["dataset"]["manifest_sha256"] == data.manifest_sha256(dataset_dir)
+    assert ck["dataset"]["manifest_sha256"] == ds_mod.manifest_sha256(dataset_dir)
     assert ck["command"] == "test" and ck["arch"]["variant"] == "unet_s" and ck["inputs"] == list(ch.DEFAULT_INPUTS)
     assert "train_state" not in ck and "train_state" in checkpoint.load(checkpoint.last_path(out))
     assert checkpoint.curve_path(out).stat().st_size > 1000

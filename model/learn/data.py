@@ -12,7 +12,6 @@ Train and validation are split by scene (``split_scenes``): samples of one scene
 """
 from __future__ import annotations
 
-import hashlib
 import random
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,29 +22,8 @@ import torch
 from .. import channels as ch
 from ..dataset import exrio
 from .. import normalize
-from ..dataset.folder import MANIFEST, stored_groups
-from ..dataset.folder import read_manifest as read_dataset_manifest
+from ..dataset import folder
 from ..errors import UserError
-
-
-def read_manifest(root) -> dict:
-    """The manifest of a dataset folder, for reading samples: dataset.read_manifest's checks (one reader of the
-    format), plus the folder's own and the scene id each sample needs for the train/validation split."""
-    root = Path(root)
-    path = root / MANIFEST
-    if not root.is_dir():
-        raise UserError(f"{root}: dataset folder does not exist")
-    if not path.is_file():
-        raise UserError(f"{path}: no manifest.json in the dataset folder (bake one with `cli.py bake`)")
-    m = read_dataset_manifest(path)
-    for key, s in m["samples"].items():
-        if not isinstance(s, dict) or "scene" not in s:
-            raise UserError(f"{path}: sample {key!r} has no 'scene' id")
-    return m
-
-
-def manifest_sha256(root) -> str:
-    return hashlib.sha256((Path(root) / "manifest.json").read_bytes()).hexdigest()
 
 
 def split_scenes(scenes, val_fraction: float = 0.2, seed: int = 0) -> tuple[list[str], list[str]]:
@@ -83,11 +61,11 @@ class DatasetFolder(torch.utils.data.Dataset):
     def load(cls, root, spec=ch.DEFAULT_INPUTS, keys=None, progress=None) -> "DatasetFolder":
         root = Path(root)
         spec = ch.parse_spec(spec)
-        m = read_manifest(root)
+        m = folder.open_folder(root, scenes=True)
         groups = tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
-        lacking = [g for g in groups if g not in stored_groups(m)]
+        lacking = [g for g in groups if g not in folder.stored_groups(m)]
         if lacking:
-            raise UserError(f"{root / 'manifest.json'}: this dataset was baked without the group(s) "
+            raise UserError(f"{root / folder.MANIFEST}: this dataset was baked without the group(s) "
                             f"{', '.join(lacking)} that the inputs {ch.format_spec(spec)!r} need; bake it again "
                             f"with this version, or leave those inputs out (--inputs)")
         ds = cls(root=root, spec=spec, manifest=m)
@@ -101,7 +79,7 @@ class DatasetFolder(torch.utils.data.Dataset):
         if progress:
             it = progress(items)
         for key, meta in it:
-            path = root / f"{key}.exr"
+            path = folder.sample_path(root, key)
             if not path.is_file():
                 raise UserError(f"{path}: listed in the manifest but missing (re-run `cli.py bake` to complete it)")
             g = exrio.read_sample(path, groups)
@@ -139,7 +117,7 @@ class DatasetFolder(torch.utils.data.Dataset):
 
     def identity(self) -> dict:
         """What names this dataset in a checkpoint."""
-        return dict(path=str(self.root.resolve()), manifest_sha256=manifest_sha256(self.root),
+        return dict(path=str(self.root.resolve()), manifest_sha256=folder.manifest_sha256(self.root),
                     n_samples=len(self.samples), skipped=dict(self.skipped),
                     format_version=self.manifest.get("format_version"),
                     blender_version=self.manifest.get("blender_version"),

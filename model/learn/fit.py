@@ -48,7 +48,7 @@ import torch
 from .. import channels as ch
 from ..infer import bench
 from . import checkpoint, data, network
-from ..dataset import exrio
+from ..dataset import exrio, folder
 from .. import files, metrics, normalize
 from ..errors import UserError
 from .train import TrainConfig, Trainer, evaluate
@@ -124,14 +124,14 @@ class Views:
 
     def __init__(self, root, keys, log=None):
         self.root = Path(root)
-        self.manifest = data.read_manifest(self.root)
+        self.manifest = folder.open_folder(self.root, scenes=True)
         self.raw: dict[str, dict[str, np.ndarray]] = {}
         self.skipped: dict[str, str] = {}
         groups = tuple(dict.fromkeys(ch.required_groups(ch.INPUT_GROUPS) + ("normal", "depth", ch.TARGET_GROUP)))
         for key in sorted(set(map(str, keys))):
             if key not in self.manifest["samples"]:
                 raise UserError(f"{self.root / 'manifest.json'}: lists no view {key!r}")
-            path = self.root / f"{key}.exr"
+            path = folder.sample_path(self.root, key)
             if not path.is_file():
                 raise UserError(f"{path}: listed in the manifest but missing (re-run the bake to complete it)")
             g = exrio.read_sample(path, groups)
@@ -590,7 +590,7 @@ class Fitter:
                       data=str(Path(cfg.data).resolve()), command=cfg.command)
         best = dict(val_psnr=final["val"].get("psnr"), val_tm_psnr=final["val"].get("tm_psnr"),
                     test_psnr=final["test"].get("psnr"), test_node_psnr=(final["test_node"] or {}).get("psnr"))
-        ident = dict(path=str(self.views.root.resolve()), manifest_sha256=data.manifest_sha256(self.views.root),
+        ident = dict(path=str(self.views.root.resolve()), manifest_sha256=folder.manifest_sha256(self.views.root),
                      n_samples=len(self.views.raw), settings=self.views.manifest.get("settings", {}),
                      split=dict(by="view", train=self.train_keys, val=self.val_keys, test=self.test_keys))
         ck = checkpoint.make(net, "network", history=[], best=best, dataset=ident, command=cfg.command,

@@ -38,9 +38,9 @@ def work_dir(out) -> Path:
 def derive_plan(data_dir, seed: int = 0) -> dict:
     """Roles for a views folder without a plan: jittered cameras (ssgi.fit.view_*) held out as make_views
     does; when there are none, every camera counts as a view point and the roles are drawn among all."""
-    from ...model.learn import data
+    from ...model.dataset import folder
     from ..pipeline import fit as sfit
-    m = data.read_manifest(data_dir)
+    m = folder.open_folder(data_dir, scenes=True)
     cams = sorted({sfit.sample_camera(s) for s in m["samples"].values()} - {None})
     jit = [c for c in cams if c.startswith(sfit.VIEW_PREFIX)] or cams
     if len(jit) < 3:

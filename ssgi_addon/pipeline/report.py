@@ -174,10 +174,10 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     first model checkpoint that was trained on this very dataset (same manifest hash), else data.split_scenes'
     default split; "all": all."""
     from ...model.learn import data
-    from ...model.dataset import exrio
+    from ...model.dataset import exrio, folder as dataset
 
     root = Path(data_dir)
-    m = data.read_manifest(root)
+    m = dataset.open_folder(root, scenes=True)
     st = m.get("settings", {})
     if st.get("synthetic"):
         raise UserError(f"{root}: a synthetic dataset (model/synthetic.py) has no scenes to render")
@@ -190,7 +190,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     if split == "all":
         chosen = sorted(by_scene)
     else:
-        sha = data.manifest_sha256(root)
+        sha = dataset.manifest_sha256(root)
         here = str(root.resolve())
         vals = [set((ck.get("dataset") or {}).get("split", {}).get("val") or ()) for ck in model_ckpts
                 if (ck.get("dataset") or {}).get("manifest_sha256") == sha or (ck.get("dataset") or {}).get("path") == here]
@@ -228,7 +228,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     out = []
     for sc, key in keys:
         meta = m["samples"][key]
-        path = root / f"{key}.exr"
+        path = dataset.sample_path(root, key)
         stored = exrio.read_sample(path, (ch.TARGET_GROUP, "eevee"))
         if meta.get("blend"):
             cam = meta.get("camera") if isinstance(meta.get("camera"), str) else None

@@ -1,0 +1,60 @@
+"""The contact sheet of a dataset folder (``cli.py preview``, bpy-free): one row per sample, one column per
+stored group, each group drawn in its own style (tonemapped light, normals as colour, depth as grey)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import files
+from . import exrio, folder as folder_
+from ..errors import UserError
+
+
+def tonemap8(x: np.ndarray) -> np.ndarray:
+    """Linear HDR -> 8-bit sRGB for viewing: Reinhard x/(1+x), then the sRGB curve."""
+    x = np.nan_to_num(np.maximum(x, 0.0), nan=0.0, posinf=1e4)
+    t = x / (1.0 + x)
+    s = np.where(t <= 0.0031308, 12.92 * t, 1.055 * np.power(t, 1 / 2.4) - 0.055)
+    return (np.clip(s, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def _tile(group: str, a: np.ndarray) -> np.ndarray:
+    if group == "normal":
+        return (np.clip(a * 0.5 + 0.5, 0, 1) * 255).astype(np.uint8)
+    if group == "depth":
+        d = a[..., 0]
+        fin = d[np.isfinite(d) & (d < 1e4)]
+        s = float(np.median(fin)) if fin.size else 1.0
+        v = d / (d + s)
+        return (np.repeat(np.clip(1 - v, 0, 1)[..., None], 3, -1) * 255).astype(np.uint8)
+    if group in ("ao",):
+        return (np.repeat(np.clip(a, 0, 1), 3, -1) * 255).astype(np.uint8)
+    if group == "albedo":
+        return tonemap8(a / np.maximum(1e-6, 1 - np.clip(a, 0, 0.999)))  # show albedo as is
+    return tonemap8(a[..., :3])
+
+
+def preview(folder, out, max_samples: int = 12) -> dict:
+    """Contact sheet: one row per sample, columns = the stored groups (tonemapped), reference last."""
+    from PIL import Image, ImageDraw
+
+    m = folder_.open_folder(folder, shards=True)
+    names = sorted(m["samples"])[:max_samples]
+    if not names:
+        raise UserError(f"{folder}: dataset has no samples to preview")
+    cols = tuple(g for g in ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
+                 if g in folder_.stored_groups(m))
+    rows = []
+    for n in names:
+        g = exrio.read_sample(folder_.sample_path(folder, n), cols)
+        rows.append(np.concatenate([_tile(c, g[c]) for c in cols], axis=1))
+    sheet = np.concatenate(rows, axis=0)
+    label_h = 14
+    img = Image.new("RGB", (sheet.shape[1], sheet.shape[0] + label_h), (0, 0, 0))
+    img.paste(Image.fromarray(sheet), (0, label_h))
+    d = ImageDraw.Draw(img)
+    w = sheet.shape[1] // len(cols)
+    for i, c in enumerate(cols):
+        d.text((i * w + 3, 1), c, fill=(255, 255, 255))
+    out = files.atomic_write(out, lambda tmp: img.save(tmp, format="PNG"))
+    return {"sheet": str(out), "samples": len(names)}
+
