@@ -11,11 +11,11 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model.learn import checkpoint, fit, network
+from ssgi.model.learn import checkpoint, data, fit, network
 from ssgi.model import normalize
 from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
-from ssgi.model.learn.train import TrainConfig, evaluate
+from ssgi.model.learn.train import TrainConfig, Trainer, evaluate
 
 from .conftest import clean, run_cli, run_py
 
@@ -103,12 +103,12 @@ def test_config_refuses_overlapping_or_empty_splits(views):
 
 
 def test_fit_trainer_uses_the_given_views_and_starting_weights(views, generic, tmp_path):
-    v = fit.Views(views, KEYS)
-    ds = v.dataset(ch.DEFAULT_INPUTS, TRAIN, VAL)
+    v = data.StoredSamples(views, KEYS)
+    ds = v.dataset(ch.DEFAULT_INPUTS, TRAIN + VAL)
     ck = checkpoint.load(generic)
     cfg = TrainConfig(data=str(views), out=str(tmp_path / "t.pt"), variant="unet_s", inputs=ch.format_spec(ch.DEFAULT_INPUTS),
                       epochs=1, crop=32, batch=4, command="test")
-    tr = fit.FitTrainer(cfg, ds, init_state=ck["state_dict"], log=lambda m: None)
+    tr = Trainer(cfg, ds, split=(TRAIN, VAL), init_state=ck["state_dict"], log=lambda m: None)
     tr._setup()
     assert [s.key for s in tr.train_set] == TRAIN and [s.key for s in tr.val_set] == VAL
     for k, w in ck["state_dict"].items():
@@ -126,7 +126,7 @@ def test_views_build_inputs_as_the_render_path_does(views, tmp_path):
     d = synthetic.make_dataset(tmp_path / "v", scenes=1, per_scene=1, w=48, h=32, seed=3)
     exrio.write_sample(d / "000000.exr", g)
     g = exrio.read_sample(d / "000000.exr")  # as stored (half floats)
-    s = fit.Views(d, KEYS[:1]).samples(spec, KEYS[:1], "x")[0]
+    s = data.StoredSamples(d, KEYS[:1]).samples(spec, KEYS[:1])[0]
     want, _ = normalize.to_inputs({k: g[k] for k in ("albedo", "depth", "direct", "normal")}, spec)
     np.testing.assert_array_equal(s.x.permute(1, 2, 0).numpy(), want)
     without, _ = normalize.to_inputs({k: g[k] for k in ("albedo", "depth", "direct")}, spec)
@@ -156,13 +156,13 @@ def test_fit_report_numbers_are_the_models_own(fitted, views):
     the generic model's too."""
     ck = checkpoint.load(fitted["out"])
     rep = ck["fit"]
-    v = fit.Views(views, KEYS)
+    v = data.StoredSamples(views, KEYS)
     net = checkpoint.build_net(ck)
-    got = evaluate(net, v.samples(tuple(ck["inputs"]), TEST, "t"))["val_psnr"]
+    got = evaluate(net, v.samples(tuple(ck["inputs"]), TEST))["val_psnr"]
     assert got == pytest.approx(rep["final"]["test"]["psnr"], abs=1e-6)
     gck = checkpoint.load(fitted["cfg"].init)
     gnet = checkpoint.build_net(gck)
-    gv = evaluate(gnet, v.samples(tuple(gck["inputs"]), TEST, "t"))["val_psnr"]
+    gv = evaluate(gnet, v.samples(tuple(gck["inputs"]), TEST))["val_psnr"]
     assert gv == pytest.approx(rep["generic"]["test"]["psnr"], abs=1e-6)
 
     # as the node shows them: the saved models loaded the node's way, each test view predicted from its

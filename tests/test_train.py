@@ -325,3 +325,17 @@ def test_background_pixels_are_left_out_of_metrics_and_loss(dataset_dir):
     np.testing.assert_allclose(b, [0.25] * 3, atol=1e-6)
     ds = data.DatasetFolder.load(dataset_dir)
     assert all(bool(s.mask.all()) for s in ds.samples)  # synthetic samples: geometry everywhere
+
+
+def test_one_loader_serves_training_and_the_fit(dataset_dir):
+    """DatasetFolder.load (training) and StoredSamples (the fit, many specs from one read) build the same
+    samples bit for bit; keys select samples, and a key the manifest lacks is an error naming the manifest."""
+    keys = ["000001", "000004"]
+    spec = ch.parse_spec("albedo,normal,depth,direct,lit")
+    a = data.DatasetFolder.load(dataset_dir, spec, keys=keys)
+    b = data.StoredSamples(dataset_dir, keys).dataset(spec, keys)
+    assert [s.key for s in a.samples] == [s.key for s in b.samples] == keys
+    for s, t in zip(a.samples, b.samples):
+        assert s.scene == t.scene and torch.equal(s.x, t.x) and torch.equal(s.y, t.y) and torch.equal(s.mask, t.mask)
+    with pytest.raises(UserError, match=r"manifest\.json: lists no sample '999999'"):
+        data.DatasetFolder.load(dataset_dir, spec, keys=["999999"])

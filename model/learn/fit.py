@@ -48,7 +48,7 @@ import torch
 from .. import channels as ch
 from ..infer import bench
 from . import checkpoint, data, network
-from ..dataset import exrio, folder
+from ..dataset import folder
 from .. import files, metrics, normalize
 from ..errors import UserError
 from .train import TrainConfig, Trainer, evaluate
@@ -114,82 +114,6 @@ class FitConfig:
         for row in self.ladder:
             if len(row) != 3 or not isinstance(row[2], dict):
                 raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")
-
-
-# ---------------------------------------------------------------------------------------------- data
-
-class Views:
-    """The raw groups of every view, read once; ``dataset(spec, keys)`` builds training samples for a spec
-    the way the Predictor builds its input."""
-
-    def __init__(self, root, keys, log=None):
-        self.root = Path(root)
-        self.manifest = folder.open_folder(self.root, scenes=True)
-        self.raw: dict[str, dict[str, np.ndarray]] = {}
-        self.skipped: dict[str, str] = {}
-        groups = tuple(dict.fromkeys(ch.required_groups(ch.INPUT_GROUPS) + ("normal", "depth", ch.TARGET_GROUP)))
-        for key in sorted(set(map(str, keys))):
-            if key not in self.manifest["samples"]:
-                raise UserError(f"{self.root / 'manifest.json'}: lists no view {key!r}")
-            path = folder.sample_path(self.root, key)
-            if not path.is_file():
-                raise UserError(f"{path}: listed in the manifest but missing (re-run the bake to complete it)")
-            g = exrio.read_sample(path, groups)
-            if not np.isfinite(normalize.target(g)).all():
-                self.skipped[key] = "non-finite reference pixel(s)"
-                if log:
-                    log(f"view {key}: left out ({self.skipped[key]})")
-                continue
-            self.raw[key] = g
-        sizes = {v["ref"].shape[:2] for v in self.raw.values()}
-        if len(sizes) > 1:
-            raise UserError(f"{self.root}: views have different sizes {sorted(sizes)}")
-        self.size = next(iter(sizes)) if sizes else (0, 0)  # (H, W)
-
-    def keys(self, keys) -> list[str]:
-        return [k for k in sorted(set(map(str, keys))) if k in self.raw]
-
-    def samples(self, spec, keys, label: str) -> list[data.Sample]:
-        spec = tuple(spec)
-        out = []
-        for k in self.keys(keys):
-            g = self.raw[k]
-            x, rep = normalize.to_inputs({n: g[n] for n in ch.required_groups(spec) + ("normal",)}, spec)
-            y = np.ascontiguousarray(normalize.target(g))
-            mask = normalize.geometry_mask(g["depth"], g["normal"])
-            out.append(data.Sample(k, label, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
-                                   torch.from_numpy(y).permute(2, 0, 1).contiguous(), rep, torch.from_numpy(mask)))
-        return out
-
-    def dataset(self, spec, train_keys, val_keys) -> data.DatasetFolder:
-        spec = ch.parse_spec(spec)
-        return data.DatasetFolder(root=self.root, spec=spec, manifest=self.manifest,
-                                  samples=self.samples(spec, train_keys, "fit-train") + self.samples(spec, val_keys, "fit-val"))
-
-
-class FitTrainer(Trainer):
-    """The project's Trainer with the views' own split (train / held-out val keys instead of a split by
-    scene) and, optionally, starting weights (fine-tuning)."""
-
-    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder, init_state: dict | None = None, log=None):
-        super().__init__(cfg, dataset=dataset, log=log)
-        self.init_state = init_state
-
-    def _setup(self):
-        super()._setup()  # split_scenes sees the two labels "fit-train" / "fit-val"; replaced here
-        ds = self.dataset
-        self.train_set = [s for s in ds.samples if s.scene == "fit-train"]
-        self.val_set = [s for s in ds.samples if s.scene == "fit-val"]
-        H = min(s.x.shape[1] for s in self.train_set)
-        W = min(s.x.shape[2] for s in self.train_set)
-        self.crop = (min(self.cfg.crop, H), min(self.cfg.crop, W))
-        area = np.mean([s.x.shape[1] * s.x.shape[2] for s in self.train_set])
-        self.cpi = self.cfg.crops_per_image or max(1, int(round(area / (self.crop[0] * self.crop[1]))))
-        self.identity["split"] = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set],
-                                      by="view")
-        if self.init_state is not None:
-            self.net.load_state_dict(self.init_state)
-            self._snapshot()
 
 
 # ---------------------------------------------------------------------------------------------- surgery
@@ -307,7 +231,7 @@ class Fitter:
         (net with the best val weights, summary). Stops early when the val PSNR reaches ``target``."""
         self._check_stop()
         spec = ch.parse_spec(spec)
-        ds = self.views.dataset(spec, self.train_keys, self.val_keys)
+        ds = self.views.dataset(spec, self.train_keys + self.val_keys)
         overrides = {k: v for k, v in arch.items() if k in network.BACKBONES[network.VARIANTS[arch["variant"]]["backbone"]][1]}
         self.runs += 1
         out = self.work / f"{self.runs:02d}_{name}.pt"
@@ -334,7 +258,7 @@ class Fitter:
                          run=name, val_psnr=d.get("val_psnr"), best_psnr=d.get("best_psnr"))
 
         quiet = []
-        tr = FitTrainer(tc, ds, init_state=init_state, log=quiet.append)
+        tr = Trainer(tc, ds, split=(self.train_keys, self.val_keys), init_state=init_state, log=quiet.append)
         res = tr.run(callback=cb, should_stop=stop)
         if cancelled["v"]:
             raise Cancelled()
@@ -348,7 +272,7 @@ class Fitter:
                          epochs=int(res["epochs"]), minutes=_f(res["minutes"]), reached=bool(reached["v"]))
 
     def _score(self, net, keys) -> dict:
-        samples = self.views.samples(tuple(net.arch["inputs"]), keys, "score")
+        samples = self.views.samples(tuple(net.arch["inputs"]), keys)
         if not samples:
             return {}
         ev = evaluate(net, samples)
@@ -387,7 +311,8 @@ class Fitter:
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
         self.work.mkdir(parents=True, exist_ok=True)
-        self.views = Views(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys), log=self.log)
+        self.views = data.StoredSamples(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys),
+                                        log=self.log)
         self.train_keys, self.val_keys = self.views.keys(cfg.train_keys), self.views.keys(cfg.val_keys)
         self.test_keys = self.views.keys(cfg.test_keys)
         if not self.train_keys or not self.val_keys:

@@ -156,10 +156,15 @@ def _finish_plot(fig, ax, path, title, ylabel, fontsize=None, xlabel="training m
 
 
 class Trainer:
-    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder | None = None, log=None):
+    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder | None = None, log=None, split=None,
+                 init_state: dict | None = None):
+        """``split``: (train keys, validation keys) instead of the split by scene (the fit's views of one scene);
+        ``init_state``: starting weights (fine-tuning)."""
         cfg.check()
         self.cfg = cfg
         self.dataset = dataset
+        self.split = split
+        self.init_state = init_state
         self.log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
         self.out = Path(cfg.out)
         self.last = checkpoint.last_path(self.out)
@@ -212,9 +217,17 @@ class Trainer:
         if resume is not None and resume["dataset"].get("manifest_sha256") != ident["manifest_sha256"]:
             raise UserError(f"{self.last}: was trained on another dataset (manifest differs from {cfg.data}/manifest.json); "
                             "train without --resume or point --data at the original dataset")
-        train_sc, val_sc = data.split_scenes(ds.scenes, cfg.val_fraction, cfg.seed)
-        self.train_set, self.val_set = ds.subset(train_sc), ds.subset(val_sc)
-        self.identity = dict(ident, split=dict(train=train_sc, val=val_sc, val_fraction=cfg.val_fraction, seed=cfg.seed))
+        if self.split is None:
+            train_sc, val_sc = data.split_scenes(ds.scenes, cfg.val_fraction, cfg.seed)
+            self.train_set, self.val_set = ds.subset(train_sc), ds.subset(val_sc)
+            split = dict(train=train_sc, val=val_sc, val_fraction=cfg.val_fraction, seed=cfg.seed)
+        else:
+            tr, va = ({str(k) for k in keys} for keys in self.split)
+            self.train_set = [s for s in ds.samples if s.key in tr]
+            self.val_set = [s for s in ds.samples if s.key in va]
+            train_sc, val_sc = sorted({s.scene for s in self.train_set}), sorted({s.scene for s in self.val_set})
+            split = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set], by="view")
+        self.identity = dict(ident, split=split)
         torch.manual_seed(cfg.seed)
         self.net = network.build(network.arch_for(cfg.variant, spec, **cfg.arch))
         self.net.train()
@@ -252,6 +265,8 @@ class Trainer:
             self.quarantine = list(ts["quarantine"])
             self.history = list(resume["history"])
             self.best = dict(ts["best"])
+        if self.init_state is not None:
+            self.net.load_state_dict(self.init_state)
         self.log(f"{cfg.variant}: {network.count_params(self.net):,} parameters, receptive field "
                  f"{self.net.receptive_field}px; {len(self.train_set)} train / {len(self.val_set)} val samples "
                  f"({len(train_sc)} / {len(val_sc)} scenes); {self.cpi} crops of {self.crop[0]}x{self.crop[1]} per image")
