@@ -29,7 +29,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model import channels as ch  # noqa: E402
-from ssgi.model.learn import checkpoint
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
@@ -57,7 +57,7 @@ def log(msg):
     print(f"gbuffer_samples: {msg}", file=sys.stderr, flush=True)
 
 
-pred = checkpoint.load_predictor(a.model)
+pred = predictor.load_predictor(a.model)
 data = Path(a.data)
 scenes, over, notes = report_run.dataset_scenes(data, [pred.ckpt], split="val")
 for n in notes:

@@ -15,6 +15,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import cli  # noqa: E402
 
 cli.load_package()
+from ssgi.model.infer import predictor
 from ssgi.model.learn import checkpoint
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
@@ -28,9 +29,9 @@ def main(argv=None):
     ap.add_argument("--scale", type=int, default=1, help="repeat each pixel N times (nearest) for viewing")
     a = ap.parse_args(argv)
     rep = checkpoint.load(a.model)["fit"]
-    pred = checkpoint.load_predictor(a.model)
+    pred = predictor.load_predictor(a.model)
     gpath = (rep.get("generic") or {}).get("path")
-    gen = checkpoint.load_predictor(gpath) if gpath and Path(gpath).is_file() else None
+    gen = predictor.load_predictor(gpath) if gpath and Path(gpath).is_file() else None
     rows = []
     for key in rep["views"]["test"] or rep["views"]["val"]:
         g = exrio.read_sample(Path(rep["data"]) / f"{key}.exr")

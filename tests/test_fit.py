@@ -12,6 +12,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, data, fit, network
+from ssgi.model.infer import predictor
 from ssgi.model import normalize
 from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
@@ -139,7 +140,7 @@ def test_fit_writes_a_checkpoint_with_only_the_kept_inputs(fitted):
     ck = checkpoint.load(fitted["out"])
     # every group the residual head does not need was dropped (tolerance ABLATE_ALL)
     assert tuple(ck["inputs"]) == ("albedo", "direct") == tuple(ck["arch"]["inputs"])
-    pred = checkpoint.load_predictor(fitted["out"])
+    pred = predictor.load_predictor(fitted["out"])
     assert pred.required == ("albedo", "direct")
     assert fitted["res"]["passes"] == ["use_pass_diffuse_color", "use_pass_diffuse_direct"]
     # the report is in the checkpoint and beside it, and they agree
@@ -168,7 +169,7 @@ def test_fit_report_numbers_are_the_models_own(fitted, views):
     # as the node shows them: the saved models loaded the node's way, each test view predicted from its
     # stored groups, MSE pooled over the geometry pixels
     def node_psnr(path):
-        pred = checkpoint.load_predictor(path)
+        pred = predictor.load_predictor(path)
         se, n = 0.0, 0
         for k in TEST:
             g = v.raw[k]

@@ -11,6 +11,7 @@ from hypothesis.extra.numpy import arrays
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network
+from ssgi.model.infer import predictor
 from ssgi.model import metrics, normalize
 from ssgi.model.infer.bench import synthetic_groups
 from ssgi.model.errors import UserError
@@ -26,7 +27,7 @@ def _net(variant, spec=ch.DEFAULT_INPUTS, seed=0, **kw):
 
 def _predictor(variant, **kw):
     net = _net(variant, **kw)
-    return checkpoint.Predictor(net, checkpoint.make(net, "network", command="test"))
+    return predictor.Predictor(net, checkpoint.make(net, "network", command="test"))
 
 
 # ---------------------------------------------------------------- normalisation
@@ -179,7 +180,7 @@ def test_tiled_equals_untiled(variant):
     x = torch.from_numpy(normalize.to_inputs(synthetic_groups(83, 61, seed=3), ch.DEFAULT_INPUTS)[0]).permute(2, 0, 1)[None]
     with torch.inference_mode():
         full = net(x)
-        tiled = checkpoint.tiled_forward(net, x, tile=16)
+        tiled = predictor.tiled_forward(net, x, tile=16)
     assert tiled.shape == full.shape
     torch.testing.assert_close(tiled, full, rtol=1e-4, atol=1e-5)
 
@@ -206,7 +207,7 @@ def test_predictor_nan_inf_extreme_hdr_and_black():
     g["direct"] *= np.float32(1e5)
     out = pred.predict(g)
     assert np.isfinite(out).all()
-    assert out.max() <= checkpoint.OUTPUT_BOUND * g["direct"].max()
+    assert out.max() <= predictor.OUTPUT_BOUND * g["direct"].max()
     black = {k: np.zeros_like(v) for k, v in g.items()}
     assert np.abs(pred.predict(black)).max() == 0.0  # residual head: zero albedo -> zero light
 
@@ -217,9 +218,9 @@ def test_checkpoint_roundtrip_and_errors(tmp_path):
     net = _net("unet_s")
     p = tmp_path / "m.pt"
     checkpoint.save(p, checkpoint.make(net, "network", command="test"))
-    pred = checkpoint.load_predictor(p)
+    pred = predictor.load_predictor(p)
     g = synthetic_groups(33, 17)
-    ref = checkpoint.Predictor(net, checkpoint.make(net, "network")).predict(g)
+    ref = predictor.Predictor(net, checkpoint.make(net, "network")).predict(g)
     np.testing.assert_array_equal(pred.predict(g), ref)
     assert pred.spec == ch.DEFAULT_INPUTS
 
@@ -230,22 +231,22 @@ def test_checkpoint_roundtrip_and_errors(tmp_path):
     txt = tmp_path / "notes.txt"
     txt.write_text("hello")
     with pytest.raises(UserError, match=r"notes\.txt: not an SSGI model checkpoint"):
-        checkpoint.load_predictor(txt)
+        predictor.load_predictor(txt)
     plain = tmp_path / "plain.pt"
     torch.save(net.state_dict(), plain)
     with pytest.raises(UserError, match=r"plain\.pt: not an SSGI"):
-        checkpoint.load_predictor(plain)
+        predictor.load_predictor(plain)
     # another architecture: weights of unet_s under unet's arch
     d = checkpoint.load(p)
     d["arch"] = network.arch_for("unet")
     other = tmp_path / "other.pt"
     torch.save(d, other)
     with pytest.raises(UserError, match=r"other\.pt: weights do not match architecture 'unet'"):
-        checkpoint.load_predictor(other)
+        predictor.load_predictor(other)
     d["arch"] = dict(d["arch"], backbone="transformer")
     torch.save(d, other)
     with pytest.raises(UserError, match=r"other\.pt: unsupported architecture"):
-        checkpoint.load_predictor(other)
+        predictor.load_predictor(other)
 
 
 def test_save_refuses_nan_weights_and_keeps_previous(tmp_path):
@@ -268,11 +269,11 @@ def test_bf16_path_agrees_with_fp32():
     ck = checkpoint.make(net, "network")
     g = synthetic_groups(64, 40)
     g["direct"] *= np.float32(50)
-    a = checkpoint.Predictor(net, ck).predict(g)
-    b = checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)
+    a = predictor.Predictor(net, ck).predict(g)
+    b = predictor.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)
     assert metrics.tm_psnr(b, a) >= 40
     g["direct"] *= np.float32(2000)
-    assert np.isfinite(checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)).all()
+    assert np.isfinite(predictor.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)).all()
 
 
 def test_predictor_1921x1081_keeps_shape_and_tiles_match():
@@ -288,7 +289,7 @@ def test_inputs_are_configurable_and_heads_name_what_they_need():
     spec = ("albedo", "normal", "depth", "direct", "ao")
     net = _net("unet_s", spec=spec)
     assert network.in_channels(net) == 11 and tuple(net.arch["inputs"]) == spec
-    pred = checkpoint.Predictor(net, checkpoint.make(net, "network"))
+    pred = predictor.Predictor(net, checkpoint.make(net, "network"))
     assert pred.required == spec
     assert pred.predict(synthetic_groups(9, 7)).shape == (7, 9, 3)
     with pytest.raises(UserError, match=r"head 'residual' needs input group\(s\) albedo, direct"):

@@ -8,6 +8,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, data, network
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio, synthetic
 from ssgi.model.dataset import folder as ds_mod
 from ssgi.model.learn.baseline import fit, run_baseline
@@ -109,7 +110,7 @@ def test_training_learns_and_writes_checkpoints(tmp_path, dataset_dir):
     assert len(ep) == 4 and all({"epoch", "loss", "val_psnr", "eta_s", "progress"} <= set(e) for e in ep)
     assert ep[-1]["progress"] == 1.0
     # the best checkpoint predicts like the network did at its best epoch
-    pred = checkpoint.load_predictor(out)
+    pred = predictor.load_predictor(out)
     s = data.DatasetFolder.load(dataset_dir).subset(ck["dataset"]["split"]["val"])[0]
     g = exrio.read_sample(dataset_dir / f"{s.key}.exr")
     assert np.isfinite(pred.predict(g)).all()
@@ -195,7 +196,7 @@ def test_linear_fit_recovers_an_exact_linear_map():
 
 def test_baseline_checkpoint_predicts_like_a_model(tmp_path, dataset_dir):
     res = run_baseline(dataset_dir, tmp_path / "lin.pt", log=_log([]))
-    pred = checkpoint.load_predictor(tmp_path / "lin.pt")
+    pred = predictor.load_predictor(tmp_path / "lin.pt")
     assert pred.kind == "linear" and pred.arch["variant"] == "linear"
     g = exrio.read_sample(dataset_dir / "000000.exr")
     out = pred.predict(g)

@@ -102,7 +102,7 @@ sys.path.insert(0, sys.argv[1])
 import cli
 pkg = cli.load_package()
 from importlib import import_module
-ck, bench = import_module(pkg.__name__ + ".model.learn.checkpoint"), import_module(pkg.__name__ + ".model.infer.bench")
+ck, bench = import_module(pkg.__name__ + ".model.infer.predictor"), import_module(pkg.__name__ + ".model.infer.bench")
 w, h, threads = int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
 pred = ck.load_predictor(sys.argv[2], num_threads=threads)
 g = bench.synthetic_groups(w, h)

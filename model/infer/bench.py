@@ -74,6 +74,7 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
     import torch
 
     from ..learn import checkpoint, network, variants as V
+    from . import predictor
 
     torch.set_num_threads(threads)
     sizes = [_parse_size(s) for s in sizes]
@@ -93,7 +94,7 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
         label = name or str(model)
         macs = network.macs_per_pixel(net)
         for prec in precisions:
-            pred = checkpoint.Predictor(net, ckpt, path=label, precision=prec)
+            pred = predictor.Predictor(net, ckpt, path=label, precision=prec)
             for w, h in sizes:
                 r = time_predictor(pred, w, h, repeats if w * h < 1e6 else max(1, repeats // 2))
                 row = dict(model=label, precision=prec, size=f"{w}x{h}", params=network.count_params(net),

@@ -35,7 +35,7 @@ def write_rgb_exr(path, rgb: np.ndarray, half: bool = False) -> None:
 
 
 def predict_file(model, input_path, out, png=None, threads=None, tile=None) -> dict:
-    from ..learn.checkpoint import DEFAULT_TILE, load_predictor
+    from .predictor import DEFAULT_TILE, load_predictor
 
     pred = load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE)
     input_path = Path(input_path)

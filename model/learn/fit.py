@@ -46,7 +46,7 @@ import numpy as np
 import torch
 
 from .. import channels as ch
-from ..infer import bench
+from ..infer import bench, predictor
 from . import checkpoint, data, network
 from ..dataset import folder
 from .. import files, metrics, normalize
@@ -192,9 +192,9 @@ def _arch_label(arch: dict) -> str:
     return str(arch.get("variant"))
 
 
-def _predictor(net) -> checkpoint.Predictor:
+def _predictor(net) -> predictor.Predictor:
     """``net`` as the node runs it (Predictor.predict: output bound, 0 where the albedo is black)."""
-    return checkpoint.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
+    return predictor.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
 
 
 def _time_ms(net, size, repeats: int) -> float:

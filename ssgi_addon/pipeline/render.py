@@ -65,7 +65,7 @@ def load_model(path: Path):
         hint = " (the shipped default model)" if path == ssgi_node.DEFAULT_MODEL else ""
         raise UserError(f"{path}: no such model file{hint}; set the SSGI node's model or pass --model")
     try:
-        from ...model.learn import checkpoint
+        from ...model.infer import predictor as infer
     except ImportError as e:  # torch missing in this Blender
         from ..runtime import deps
         raise UserError(deps.missing_message("The SSGI node") + f" ({e})") from None
@@ -79,7 +79,7 @@ def load_model(path: Path):
                 threads = preferences.torch_threads()
         except Exception:
             threads = None
-        pred = checkpoint.load_predictor(path, num_threads=threads)
+        pred = infer.load_predictor(path, num_threads=threads)
         _PREDICTORS.clear()
         _PREDICTORS[key] = pred
     return pred

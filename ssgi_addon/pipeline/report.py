@@ -14,7 +14,7 @@ Per scene, in this order, each timed with ``time.perf_counter`` around the call 
 
 1. the EEVEE direct-only G-buffer (passes.render_gbuffer): "EEVEE direct light only" is its Combined image
    (time = this render); the learned methods predict from these passes (time = this render + prediction);
-2. every model (checkpoint.load_predictor(...).predict), the median of ``predict_repeats`` calls;
+2. every model (predictor.load_predictor(...).predict), the median of ``predict_repeats`` calls;
 3. EEVEE with its own GI (ray tracing + fast GI on, the scene's world and lights as they are), at each
    preset of ``GI_PRESETS``;
 4. Cycles at each spp of the ladder, raw and with OIDN (albedo + normal); denoise time = OIDN render - raw;
