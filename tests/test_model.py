@@ -453,3 +453,25 @@ def test_settings_schema_writes_every_identity_key_and_one_entry_reads_folders(t
     with pytest.raises(UserError, match=r"sample '000000' has no 'scene' id"):
         dataset.open_folder(d, scenes=True)
     assert json.loads((d / "manifest.json").read_text())["format_version"] == ch.FORMAT_VERSION
+
+
+def test_score_is_the_one_scoring_and_pools_exactly():
+    """metrics.score: PSNRs over the masked pixels, SSIM/FLIP with the reference pasted where nothing was hit;
+    PooledPSNR.add_score pools bit-identically to adding the masked pixels themselves."""
+    rng = np.random.default_rng(3)
+    refs = [rng.uniform(0, 2, (9, 11, 3)).astype(np.float32) for _ in range(3)]
+    preds = [r + rng.normal(0, 0.1, r.shape).astype(np.float32) for r in refs]
+    masks = [rng.uniform(size=(9, 11)) > 0.3 for _ in refs]
+    a, b = metrics.PooledPSNR(), metrics.PooledPSNR()
+    ta, tb = metrics.PooledPSNR(tonemapped=True), metrics.PooledPSNR(tonemapped=True)
+    for p, r, m in zip(preds, refs, masks):
+        s = metrics.score(p, r, m)
+        a.add_score(s)
+        ta.add_score(s)
+        b.add(p[m], r[m])
+        tb.add(p[m], r[m])
+        assert s["psnr"] == metrics.psnr(p[m], r[m]) and s["pixels"] == 3 * int(m.sum())
+        pasted = np.where(m[..., None], p, r)
+        assert s["ssim"] == metrics.ssim(pasted, r) and s["flip"] == metrics.flip(pasted, r)
+    assert (a.value, ta.value) == (b.value, tb.value)
+    assert metrics.score(preds[0], refs[0], with_flip=False, with_ssim=False)["flip"] is None

@@ -11,10 +11,10 @@ module a *raw* record (plain data, JSON-able) plus the images of each scene. Thi
   each method's own cost;
 - ``examples.png``: one scene, every method side by side (whole image + a 2x crop), Cycles at equal time.
 
-Metrics per image (``image_metrics``): PSNR by the seed's convention (linear RGB clamped to [0, 1], MSE
+Metrics per image (``metrics.score``): PSNR by the seed's convention (linear RGB clamped to [0, 1], MSE
 pooled over pixels and channels; over several scenes the MSE is pooled over all of them), PSNR after the
-Reinhard tonemap (metrics.tm_psnr), SSIM (metrics.ssim) and HDR-FLIP (``flip``, NVIDIA's flip-evaluator on
-the linear HDR images; 0 = identical, higher = worse). A method's "mean" is the pooled PSNR / the mean SSIM
+Reinhard tonemap, SSIM and HDR-FLIP (NVIDIA's flip-evaluator on the linear HDR images; 0 = identical,
+higher = worse). A method's "mean" is the pooled PSNR / the mean SSIM
 and FLIP over scenes; its "worst" is the scene with the lowest PSNR (and highest FLIP), named.
 
 Equal-quality speed-up (``equal_quality``): on the Cycles + OIDN ladder (mean time per image against pooled
@@ -51,49 +51,6 @@ PNG_EXPOSURE = 1.0
 
 
 # ------------------------------------------------------------------------------------------------ metrics
-
-
-def _clean(a) -> np.ndarray:
-    a = np.nan_to_num(np.asarray(a, dtype=np.float32)[..., :3], nan=0.0, posinf=65504.0, neginf=0.0)
-    return np.ascontiguousarray(np.maximum(a, 0.0))
-
-
-def flip(pred, ref) -> float:
-    """Mean HDR-FLIP error of linear HDR RGB ``pred`` against ``ref`` (flip-evaluator; 0 = identical).
-
-    Negative and NaN values count as 0. A reference with no light at all (max 0) has no exposure range for
-    HDR-FLIP: both images are then scored by LDR-FLIP after clamping to [0, 1]."""
-    import flip_evaluator
-
-    p, r = _clean(pred), _clean(ref)
-    if p.shape != r.shape:
-        raise ValueError(f"shapes differ: {p.shape} vs {r.shape}")
-    if float(r.max(initial=0.0)) <= 0.0:
-        _, mean, _ = flip_evaluator.evaluate(r.clip(0, 1), p.clip(0, 1), "LDR", inputsRGB=False, applyMagma=False)
-    else:
-        _, mean, _ = flip_evaluator.evaluate(r, p, "HDR", applyMagma=False)
-    return float(mean)
-
-
-def image_metrics(pred, ref, mask=None) -> dict:
-    """Every metric of one image, plus the squared errors the pooled PSNRs need.
-
-    ``mask`` (HxW bool, normalize.geometry_mask): the pixels scored, as the trainer's validation does. Where
-    nothing was hit the world shows, which the G-buffer does not describe and the SSGI node composites from
-    EEVEE; PSNRs pool only the masked pixels, SSIM and FLIP see the reference pasted in elsewhere."""
-    pred, ref = np.asarray(pred)[..., :3], np.asarray(ref)[..., :3]
-    if mask is not None and not mask.all():
-        pm, rm = pred[mask], ref[mask]
-        pred = np.where(mask[..., None], pred, ref)
-    else:
-        pm, rm = pred, ref
-    p = metrics.PooledPSNR()
-    t = metrics.PooledPSNR(tonemapped=True)
-    if pm.size:
-        p.add(pm, rm)
-        t.add(pm, rm)
-    return dict(psnr=p.value, tm_psnr=t.value, ssim=metrics.ssim(pred, ref), flip=flip(pred, ref),
-                mse=p.mse, tm_mse=t.mse, pixels=int(p.n))
 
 
 _PEAK_CODE = r"""
@@ -134,7 +91,7 @@ def temporal_change(preds, refs) -> dict:
     mean over consecutive frame pairs of mean |e_t - e_{t-1}|, with e = tonemap(pred) - tonemap(ref)."""
     if len(preds) != len(refs) or len(preds) < 2:
         raise ValueError("temporal_change needs at least two frames and one reference per frame")
-    errs = [metrics.tonemap(_clean(p)) - metrics.tonemap(_clean(r)) for p, r in zip(preds, refs)]
+    errs = [metrics.tonemap(metrics.clean(p)) - metrics.tonemap(metrics.clean(r)) for p, r in zip(preds, refs)]
     steps = [float(np.mean(np.abs(b - a))) for a, b in zip(errs, errs[1:])]
     return dict(change=float(np.mean(steps)), per_step=steps, mean_abs_error=float(np.mean([np.mean(np.abs(e)) for e in errs])))
 

@@ -291,11 +291,11 @@ class Fitter:
         try:
             for k in keys:
                 g = self.views.raw[k]
-                out, ref = pred.predict(g), normalize.target(g)
-                m = normalize.geometry_mask(g["depth"], g["normal"])
-                p.add(out[m], ref[m])
-                tp.add(out[m], ref[m])
-                ss.append(metrics.ssim(np.where(m[..., None], out, ref), ref))
+                r = metrics.score(pred.predict(g), normalize.target(g), normalize.geometry_mask(g["depth"], g["normal"]),
+                                  with_flip=False)
+                p.add_score(r)
+                tp.add_score(r)
+                ss.append(r["ssim"])
         finally:
             net.train(was_training)
         return dict(psnr=_f(p.value), tm_psnr=_f(tp.value), ssim=_f(float(np.mean(ss))))

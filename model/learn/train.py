@@ -115,12 +115,11 @@ def evaluate(net, samples, with_ssim: bool = True) -> dict:
             sq += float((((out - normalize.light_forward(s.y[None])) ** 2) * m).sum())
             n += 3 * int(m.sum())
             pred = network.to_linear(out)[0].permute(1, 2, 0).numpy()
-            ref = s.y.permute(1, 2, 0).numpy()
-            mk = m.numpy()
-            p.add(pred[mk], ref[mk])
-            tp.add(pred[mk], ref[mk])
+            r = metrics.score(pred, s.y.permute(1, 2, 0).numpy(), m.numpy(), with_ssim=with_ssim, with_flip=False)
+            p.add_score(r)
+            tp.add_score(r)
             if with_ssim:
-                ss.append(metrics.ssim(np.where(mk[..., None], pred, ref), ref))
+                ss.append(r["ssim"])
     net.train()
     return dict(val_psnr=p.value, val_tm_psnr=tp.value, val_ssim=float(np.mean(ss)) if ss else math.nan,
                 val_loss=sq / max(n, 1))

@@ -316,7 +316,7 @@ class ReportRun:
 
     def _score(self, key: str, scene: str, img, ref, mask, times: dict) -> None:
         m = self.raw["methods"][key]
-        r = rep.image_metrics(img, ref, mask)
+        r = metrics.score(img, ref, mask)
         r["time"] = {k: float(v) for k, v in times.items()}
         m["per_scene"][scene] = r
         self.images.setdefault(scene, {})[key] = np.asarray(img[..., :3], np.float32)
