@@ -32,7 +32,7 @@ from ssgi.model import channels as ch  # noqa: E402
 from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
-from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
+from ssgi.model.images import srgb8, write_png  # noqa: E402
 from ssgi.ssgi_addon.blender import passes, room
 from ssgi.ssgi_addon.pipeline import report as report_run  # noqa: E402
 

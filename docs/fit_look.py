@@ -19,7 +19,7 @@ from ssgi.model.infer import predictor
 from ssgi.model.learn import checkpoint
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
-from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
+from ssgi.model.images import srgb8, write_png  # noqa: E402
 
 
 def main(argv=None):

@@ -53,7 +53,7 @@ m = json.loads(mpath.read_text()) if mpath.is_file() else dict(
 def expose(g):
     """Scale the light groups so the reference's 90th-percentile luminance over geometry is 0.8."""
     from ssgi.model import normalize
-    geo = normalize.geometry_mask(g["depth"], g["normal"])
+    geo = images.geometry_mask(g["depth"], g["normal"])
     lum = (g["ref"] @ np.array([0.2126, 0.7152, 0.0722], np.float32))[geo]
     p90 = float(np.percentile(lum, 90)) if lum.size else 0.0
     k = 0.8 / p90 if p90 > 0 else 1.0

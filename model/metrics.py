@@ -130,7 +130,7 @@ def score(pred, ref, mask=None, with_ssim: bool = True, with_flip: bool = True) 
     """Every metric of one HxWx3 linear image against its reference: psnr, tm_psnr, ssim, flip, and the squared
     errors pooled PSNRs need (sse, tm_sse, mse, tm_mse over ``pixels`` values).
 
-    ``mask`` (HxW bool, normalize.geometry_mask): the pixels scored. Where nothing was hit the world shows,
+    ``mask`` (HxW bool, images.geometry_mask): the pixels scored. Where nothing was hit the world shows,
     which the G-buffer does not describe and the SSGI node composites from EEVEE; the PSNRs pool only the
     masked pixels, SSIM and FLIP see the reference pasted in elsewhere (as the node shows it). SSIM / FLIP are
     None when not asked for."""

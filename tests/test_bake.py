@@ -14,7 +14,8 @@ import pytest
 
 from ssgi.model import channels as ch
 from ssgi.model.dataset import folder as ds
-from ssgi.model.dataset import exrio, preview
+from ssgi.model import images
+from ssgi.model.dataset import exrio
 
 from .conftest import run_cli, run_py
 
@@ -250,9 +251,9 @@ def test_preview_writes_a_contact_sheet(baked, tmp_path):
     im = np.asarray(Image.open(out).convert("RGB"))
     assert im.shape == (14 + 2 * 36, 8 * 64, 3)  # albedo normal depth direct ao world eevee ref
     g = exrio.read_sample(d / "000001.exr")
-    np.testing.assert_array_equal(im[14 + 36:, 7 * 64:], preview.tonemap8(g["ref"]))  # last column: the reference
-    np.testing.assert_array_equal(im[14 + 36:, 5 * 64:6 * 64], preview.tonemap8(g["world"]))
-    np.testing.assert_array_equal(im[14 + 36:, 3 * 64:4 * 64], preview.tonemap8(g["direct"]))
+    np.testing.assert_array_equal(im[14 + 36:, 7 * 64:], images.srgb8(g["ref"]))  # last column: the reference
+    np.testing.assert_array_equal(im[14 + 36:, 5 * 64:6 * 64], images.srgb8(g["world"]))
+    np.testing.assert_array_equal(im[14 + 36:, 3 * 64:4 * 64], images.srgb8(g["direct"]))
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
 
 

@@ -13,7 +13,7 @@ import torch
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, data, fit, network
 from ssgi.model.infer import predictor
-from ssgi.model import normalize
+from ssgi.model import images, normalize
 from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
 from ssgi.model.learn.train import TrainConfig, Trainer, evaluate
@@ -173,7 +173,7 @@ def test_fit_report_numbers_are_the_models_own(fitted, views):
         se, n = 0.0, 0
         for k in TEST:
             g = v.raw[k]
-            m = normalize.geometry_mask(g["depth"], g["normal"])
+            m = images.geometry_mask(g["depth"], g["normal"])
             out, ref = np.clip(pred.predict(g)[m], 0, 1), np.clip(normalize.target(g)[m], 0, 1)
             se, n = se + float(((out.astype(np.float64) - ref) ** 2).sum()), n + out.size
         return 10 * math.log10(1 / (se / n))

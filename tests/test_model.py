@@ -12,7 +12,7 @@ from hypothesis.extra.numpy import arrays
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network
 from ssgi.model.infer import predictor
-from ssgi.model import metrics, normalize
+from ssgi.model import images, metrics, normalize
 from ssgi.model.infer.bench import synthetic_groups
 from ssgi.model.errors import UserError
 
@@ -50,7 +50,7 @@ def test_depth_normalisation_is_scale_free_and_in_unit_range(z, scale):
 def test_depth_normalisation_is_finite_for_any_depth_and_background_is_one(z):
     a = normalize.depth_normalise(z)
     assert np.isfinite(a).all() and (a >= 0).all() and (a <= 1).all()
-    bg = ~normalize.geometry_mask(z)
+    bg = ~images.geometry_mask(z)
     assert (a[bg] == 1).all()
 
 
@@ -352,7 +352,6 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     from ssgi.model import files
     from ssgi.model.dataset import exrio, folder as dataset, preview, synthetic
     from ssgi.model.evaluate import report
-    from ssgi.model.infer import predict
     from ssgi.model.learn import train
     moves = []
     real = os.replace
@@ -363,7 +362,7 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     preview.preview(d, tmp_path / "sheet.png")
     net = _net("fssgi")
     checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
-    predict.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
+    images.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
     report.write_json(tmp_path / "r.json", {"a": math.inf})
     train.curve_png([dict(minutes=0.1, val_psnr=20.0, val_tm_psnr=21.0)], tmp_path / "c.png")
     assert len(moves) >= 9
@@ -475,3 +474,20 @@ def test_score_is_the_one_scoring_and_pools_exactly():
         assert s["ssim"] == metrics.ssim(pasted, r) and s["flip"] == metrics.flip(pasted, r)
     assert (a.value, ta.value) == (b.value, tb.value)
     assert metrics.score(preds[0], refs[0], with_flip=False, with_ssim=False)["flip"] is None
+
+
+def test_one_linear_to_srgb8_rule_and_one_geometry_mask():
+    """images.srgb8: Reinhard then the sRGB curve (0 -> 0, 1 -> sRGB(0.5) = 188, +Inf -> 255, NaN -> 0), and
+    the float images.srgb the report draws is the same curve; images.geometry_mask: depth in (0, 1e9) and a
+    normal longer than 0.5, the mask of the depth normalisation's background."""
+    lin = np.array([[[0.0, 1.0, np.inf], [np.nan, -1.0, 1e9]]], np.float32)
+    assert images.srgb8(lin).tolist() == [[[0, 188, 255], [0, 0, 255]]]
+    assert np.array_equal(np.round(images.srgb(lin) * 255).astype(np.uint8), images.srgb8(lin))
+    assert images.srgb8(np.full((1, 1, 3), 0.5, np.float32), exposure=2.0).tolist() == [[[188] * 3]]
+    z = np.array([[1.0, 0.0, np.nan, 2e9, 3.0]], np.float32)[..., None]
+    n = np.array([[[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0, 1], [0.3, 0.3, 0.3]]], np.float32)
+    assert images.geometry_mask(z).tolist() == [[True, False, False, False, True]]
+    assert images.geometry_mask(z, n).tolist() == [[True, False, False, False, True]]
+    n[0, 4] = [0.2, 0.2, 0.2]  # |n| = 0.35: an edge pixel that is mostly background
+    assert images.geometry_mask(z, n).tolist() == [[True, False, False, False, False]]
+    assert normalize.depth_normalise(z, n)[0, 4, 0] == 1.0  # background for the depth normalisation too

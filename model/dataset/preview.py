@@ -4,17 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import files
+from .. import files, images
 from . import exrio, folder as folder_
 from ..errors import UserError
-
-
-def tonemap8(x: np.ndarray) -> np.ndarray:
-    """Linear HDR -> 8-bit sRGB for viewing: Reinhard x/(1+x), then the sRGB curve."""
-    x = np.nan_to_num(np.maximum(x, 0.0), nan=0.0, posinf=1e4)
-    t = x / (1.0 + x)
-    s = np.where(t <= 0.0031308, 12.92 * t, 1.055 * np.power(t, 1 / 2.4) - 0.055)
-    return (np.clip(s, 0, 1) * 255 + 0.5).astype(np.uint8)
 
 
 def _tile(group: str, a: np.ndarray) -> np.ndarray:
@@ -29,8 +21,8 @@ def _tile(group: str, a: np.ndarray) -> np.ndarray:
     if group in ("ao",):
         return (np.repeat(np.clip(a, 0, 1), 3, -1) * 255).astype(np.uint8)
     if group == "albedo":
-        return tonemap8(a / np.maximum(1e-6, 1 - np.clip(a, 0, 0.999)))  # show albedo as is
-    return tonemap8(a[..., :3])
+        return images.srgb8(a / np.maximum(1e-6, 1 - np.clip(a, 0, 0.999)))  # show albedo as is
+    return images.srgb8(a[..., :3])
 
 
 def preview(folder, out, max_samples: int = 12) -> dict:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import files, metrics
+from .. import files, images, metrics
 from ..errors import UserError
 
 FAMILIES = {  # family -> (label, colour, marker)
@@ -465,12 +465,6 @@ def pareto_png(raw: dict, path) -> Path:
     return _save_fig(fig, path)
 
 
-def srgb_preview(lin, exposure: float = PNG_EXPOSURE) -> np.ndarray:
-    """HxWx3 linear HDR -> float sRGB [0, 1] (the Reinhard tonemap of metrics.tonemap, then the sRGB curve)."""
-    t = metrics.tonemap(np.asarray(lin, dtype=np.float64)[..., :3] * exposure)
-    return np.clip(np.where(t <= 0.0031308, 12.92 * t, 1.055 * np.power(t, 1 / 2.4) - 0.055), 0, 1)
-
-
 def crop_box(h: int, w: int, err: np.ndarray | None = None) -> tuple[int, int, int, int]:
     """A half-size box (y0, y1, x0, x1): around the largest error of ``err`` (HxW) when given, else centred."""
     ch_, cw = max(1, h // 2), max(1, w // 2)
@@ -503,7 +497,7 @@ def examples_png(tiles, path, title: str = "", err: np.ndarray | None = None, co
     for ax in axes.flat:
         ax.axis("off")
     for i, (name, img) in enumerate(tiles):
-        im = srgb_preview(img)
+        im = images.srgb(img, PNG_EXPOSURE)
         crop = im[y0:y1, x0:x1].repeat(2, axis=0).repeat(2, axis=1)[:h, :w]
         cell = np.ones((2 * h + gap, w, 3))
         cell[:h] = im

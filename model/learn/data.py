@@ -4,7 +4,7 @@ The whole dataset is read once (300 samples of 240x135 are ~0.6 GB as float32 in
 ``x`` (C x H x W, ``normalize.to_inputs`` for the input spec) and ``y`` (3 x H x W, the Cycles reference in
 linear HDR RGB). A sample whose reference has a non-finite pixel is left out with a warning (it would poison
 the loss); its key is listed in ``skipped``. Inputs are repaired by normalize's rule and the repaired pixels
-counted in ``repaired``. ``mask`` marks the geometry pixels (normalize.geometry_mask of depth and normal):
+counted in ``repaired``. ``mask`` marks the geometry pixels (images.geometry_mask of depth and normal):
 pixels where nothing was hit show the world, which no input describes, so the loss, the validation metrics
 and the baseline's fit leave them out (the SSGI node composites the world there).
 
@@ -26,7 +26,7 @@ import torch
 
 from .. import channels as ch
 from ..dataset import exrio
-from .. import normalize
+from .. import images, normalize
 from ..dataset import folder
 from ..errors import UserError
 
@@ -50,7 +50,7 @@ class Sample:
     x: torch.Tensor  # C x H x W normalised inputs
     y: torch.Tensor  # 3 x H x W linear HDR reference
     repaired: int = 0
-    mask: torch.Tensor | None = None  # H x W bool: geometry pixels (normalize.geometry_mask); None = all
+    mask: torch.Tensor | None = None  # H x W bool: geometry pixels (images.geometry_mask); None = all
 
 
 def _groups_for(spec) -> tuple[str, ...]:
@@ -99,7 +99,7 @@ def make_sample(key: str, scene: str, g: dict, spec) -> Sample:
     """One training sample from a sample's stored groups, built the way the Predictor builds its input."""
     x, rep = normalize.to_inputs(g, spec)
     y = np.ascontiguousarray(normalize.target(g))
-    mask = normalize.geometry_mask(g["depth"], g["normal"])
+    mask = images.geometry_mask(g["depth"], g["normal"])
     return Sample(key, scene, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
                   torch.from_numpy(y).permute(2, 0, 1).contiguous(), rep, torch.from_numpy(mask))
 

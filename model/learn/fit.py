@@ -49,7 +49,7 @@ from .. import channels as ch
 from ..infer import bench, predictor
 from . import checkpoint, data, network
 from ..dataset import folder
-from .. import files, metrics, normalize
+from .. import files, images, metrics, normalize
 from ..errors import UserError
 from .train import TrainConfig, Trainer, evaluate
 
@@ -291,7 +291,7 @@ class Fitter:
         try:
             for k in keys:
                 g = self.views.raw[k]
-                r = metrics.score(pred.predict(g), normalize.target(g), normalize.geometry_mask(g["depth"], g["normal"]),
+                r = metrics.score(pred.predict(g), normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
                                   with_flip=False)
                 p.add_score(r)
                 tp.add_score(r)

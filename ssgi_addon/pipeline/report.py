@@ -39,7 +39,7 @@ import bpy
 import numpy as np
 
 from ...model import channels as ch
-from ...model import metrics, normalize
+from ...model import images, metrics
 from ...model.evaluate import report as rep
 from ...model.errors import UserError
 from ..blender import blendfile, passes, room
@@ -379,7 +379,7 @@ class ReportRun:
         g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
         t_g, t_w = es.t_raster, es.t_world
         self._step(f"{name}: G-buffer {t_g:.2f} s, world pass {t_w:.2f} s")
-        mask = normalize.geometry_mask(g["depth"], g["normal"])
+        mask = images.geometry_mask(g["depth"], g["normal"])
         ref = es.ref
         if ref.shape[:2] != g["depth"].shape[:2]:
             raise UserError(f"scene {name}: the stored reference is {ref.shape[1]}x{ref.shape[0]}, the render "
