@@ -491,3 +491,26 @@ def test_one_linear_to_srgb8_rule_and_one_geometry_mask():
     n[0, 4] = [0.2, 0.2, 0.2]  # |n| = 0.35: an edge pixel that is mostly background
     assert images.geometry_mask(z, n).tolist() == [[True, False, False, False, False]]
     assert normalize.depth_normalise(z, n)[0, 4, 0] == 1.0  # background for the depth normalisation too
+
+
+def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_ablation(monkeypatch):
+    """The channel spec is the one list: a new stored input group shows in the preview's columns (in its own
+    style), in the benchmark's synthetic inputs and in the fit's ablation order, and its render pass is the
+    one the Blender side reads."""
+    from dataclasses import replace
+
+    from ssgi.model.dataset import folder as dataset, preview
+    from ssgi.model.infer import bench
+    from ssgi.model.learn import fit
+    new = replace(ch.GROUPS["ao"], name="curvature", render_pass="Curvature", preview="grey", drop_rank=1)
+    monkeypatch.setattr(ch, "GROUPS", {**ch.GROUPS, "curvature": new})
+    monkeypatch.setattr(ch, "SAMPLE_GROUPS", ch.SAMPLE_GROUPS[:-2] + ("curvature",) + ch.SAMPLE_GROUPS[-2:])
+    monkeypatch.setattr(ch, "INPUT_GROUPS", ch.INPUT_GROUPS + ("curvature",))
+    m = dataset.new_manifest({}, "test")
+    assert "curvature" in preview.columns(m) and preview.columns(m)[-1] == "ref"
+    assert preview._tile("curvature", np.full((2, 2, 1), 0.5, np.float32)).shape == (2, 2, 3)
+    assert bench.synthetic_groups(4, 3)["curvature"].shape == (3, 4, 1)
+    assert ch.drop_order()[:3] == ("world", "curvature", "scene")
+    spec = ch.parse_spec("albedo,direct,curvature")
+    assert fit.droppable(spec, "residual") == ["curvature"]
+    assert {g.name: g.render_pass for g in ch.GROUPS.values()}["curvature"] == "Curvature"

@@ -4,25 +4,31 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import files, images
+from .. import channels as ch, files, images
 from . import exrio, folder as folder_
 from ..errors import UserError
 
 
 def _tile(group: str, a: np.ndarray) -> np.ndarray:
-    if group == "normal":
+    style = ch.GROUPS[group].preview
+    if style == "normal":
         return (np.clip(a * 0.5 + 0.5, 0, 1) * 255).astype(np.uint8)
-    if group == "depth":
+    if style == "depth":
         d = a[..., 0]
         fin = d[np.isfinite(d) & (d < 1e4)]
         s = float(np.median(fin)) if fin.size else 1.0
         v = d / (d + s)
         return (np.repeat(np.clip(1 - v, 0, 1)[..., None], 3, -1) * 255).astype(np.uint8)
-    if group in ("ao",):
-        return (np.repeat(np.clip(a, 0, 1), 3, -1) * 255).astype(np.uint8)
-    if group == "albedo":
+    if style == "grey":
+        return (np.repeat(np.clip(a[..., :1], 0, 1), 3, -1) * 255).astype(np.uint8)
+    if style == "color":
         return images.srgb8(a / np.maximum(1e-6, 1 - np.clip(a, 0, 0.999)))  # show albedo as is
     return images.srgb8(a[..., :3])
+
+
+def columns(manifest: dict) -> tuple[str, ...]:
+    """The sheet's columns: every group the dataset's samples hold, in the channel spec's order (reference last)."""
+    return tuple(g for g in ch.SAMPLE_GROUPS if g in folder_.stored_groups(manifest))
 
 
 def preview(folder, out, max_samples: int = 12) -> dict:
@@ -33,8 +39,7 @@ def preview(folder, out, max_samples: int = 12) -> dict:
     names = sorted(m["samples"])[:max_samples]
     if not names:
         raise UserError(f"{folder}: dataset has no samples to preview")
-    cols = tuple(g for g in ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
-                 if g in folder_.stored_groups(m))
+    cols = columns(m)
     rows = []
     for n in names:
         g = exrio.read_sample(folder_.sample_path(folder, n), cols)

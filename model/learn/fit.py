@@ -20,7 +20,7 @@ Method (one time budget, ``minutes``, shared by all phases; a run stops early wh
    its val PSNR reaches the target. The first candidate that reaches the target is kept; when none does,
    the one with the best val PSNR is kept (and the report says the target was missed).
 3. **Input selection.** The kept network is fine-tuned briefly on its own inputs (the control) and, for each
-   input group the head does not need (``DROP_ORDER``), with that group removed: the first layers' weights
+   input group the head does not need (``channels.drop_order``: `world` first, a whole second EEVEE render), with that group removed: the first layers' weights
    for the removed channels are cut out (``drop_inputs``), the rest kept, and the same short fine-tune
    follows. A group is dropped when the val PSNR without it is at most ``drop_tol`` dB below the control's.
    Drops accumulate (each later trial starts from the last accepted network), and the comparison is always
@@ -58,11 +58,6 @@ DEFAULT_TARGET_PSNR = 30.0
 SIZE_SHARE = 0.5  # of the budget, for the size search
 ABLATION_SHARE = 0.3  # ... for the input ablation (control + one run per droppable group)
 MIN_RUN_S = 5.0  # a run shorter than this is not started
-# input groups tried for removal, in this order (cheapest pass to lose first)
-# `world` first: dropping it saves a whole second EEVEE render (docs/bake.md), and a scene without sky light
-# loses nothing without it
-DROP_ORDER = ("world", "scene", "ao", "depth", "normal", "lit", "direct", "albedo")
-HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
 
 # smallest first: (name, variant, overrides of network.arch_for). Narrow full-resolution levels: at 960x540
 # the full-resolution convolutions dominate the time (measured, docs/fit.md), so level 0 is 4-12 wide.
@@ -149,8 +144,8 @@ def drop_inputs(net, new_spec) -> torch.nn.Module:
 
 
 def droppable(spec, head: str) -> list[str]:
-    need = HEAD_NEEDS.get(head, ())
-    return [g for g in DROP_ORDER if g in spec and g not in need]
+    need = network.HEAD_NEEDS.get(head, ())
+    return [g for g in ch.drop_order() if g in spec and g not in need]
 
 
 # ---------------------------------------------------------------------------------------------- the driver

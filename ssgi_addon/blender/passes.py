@@ -27,17 +27,8 @@ import numpy as np
 from ...model import channels as ch, files
 from ...model.errors import UserError
 
-# group -> (Blender render pass name, channel suffixes in the EXR part)
-PASS_NAMES: dict[str, str] = {
-    "albedo": "Diffuse Color",
-    "normal": "Normal",
-    "depth": "Depth",
-    "direct": "Diffuse Direct",
-    "ao": "Ambient Occlusion",
-    "world": "Diffuse Direct",  # of a second render: lights hidden, the world lighting
-    "eevee": "Combined",
-    "ref": "Combined",
-}
+# group -> Blender render pass name (the channel spec's Group.render_pass)
+PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
 EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee")
 AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
 # Lights' custom cutoff distance (m), needed with light threshold 0 (without a custom distance EEVEE then culls
