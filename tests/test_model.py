@@ -352,7 +352,7 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     from ssgi.model import files
     from ssgi.model.dataset import exrio, folder as dataset, preview, synthetic
     from ssgi.model.evaluate import report
-    from ssgi.model.learn import train
+    from ssgi.model.learn import curves
     moves = []
     real = os.replace
     monkeypatch.setattr(os, "replace", lambda a, b: (moves.append((Path(a), Path(b))), real(a, b))[1])
@@ -364,7 +364,7 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
     images.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
     report.write_json(tmp_path / "r.json", {"a": math.inf})
-    train.curve_png([dict(minutes=0.1, val_psnr=20.0, val_tm_psnr=21.0)], tmp_path / "c.png")
+    curves.curve_png([dict(minutes=0.1, val_psnr=20.0, val_tm_psnr=21.0)], tmp_path / "c.png")
     assert len(moves) >= 9
     for src, dst in moves:
         m = files.TEMP_RE.match(src.name)
