@@ -11,10 +11,11 @@ from pathlib import Path
 import numpy as np
 
 import _bootstrap  # noqa: E402, F401  (the checkout as package ssgi)
+from ssgi.model.infer import predictor  # noqa: E402
 from ssgi.model.learn import checkpoint
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
-from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
+from ssgi.model.images import srgb8, write_png  # noqa: E402
 
 
 def main(argv=None):
@@ -24,9 +25,9 @@ def main(argv=None):
     ap.add_argument("--scale", type=int, default=1, help="repeat each pixel N times (nearest) for viewing")
     a = ap.parse_args(argv)
     rep = checkpoint.load(a.model)["fit"]
-    pred = checkpoint.load_predictor(a.model)
+    pred = predictor.load_predictor(a.model)
     gpath = (rep.get("generic") or {}).get("path")
-    gen = checkpoint.load_predictor(gpath) if gpath and Path(gpath).is_file() else None
+    gen = predictor.load_predictor(gpath) if gpath and Path(gpath).is_file() else None
     rows = []
     for key in rep["views"]["test"] or rep["views"]["val"]:
         g = exrio.read_sample(Path(rep["data"]) / f"{key}.exr")

@@ -25,10 +25,10 @@ import _bootstrap  # noqa: E402, F401  (the checkout as package ssgi)
 import numpy as np  # noqa: E402
 
 from ssgi.model import channels as ch  # noqa: E402
-from ssgi.model.learn import checkpoint
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
-from ssgi.model.infer.predict import srgb8, write_png  # noqa: E402
+from ssgi.model.images import srgb8, write_png  # noqa: E402
 from ssgi.ssgi_addon.blender import passes, room
 from ssgi.ssgi_addon.pipeline import report as report_run  # noqa: E402
 
@@ -53,7 +53,7 @@ def log(msg):
     print(f"gbuffer_samples: {msg}", file=sys.stderr, flush=True)
 
 
-pred = checkpoint.load_predictor(a.model)
+pred = predictor.load_predictor(a.model)
 data = Path(a.data)
 scenes, over, notes = report_run.dataset_scenes(data, [pred.ckpt], split="val")
 for n in notes:

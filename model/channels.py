@@ -25,6 +25,9 @@ class Group:
     blender_pass: str | None  # Blender view-layer pass that produces it (None: derived or Combined)
     units: str
     doc: str
+    render_pass: str | None = None  # the Render Layers socket / EXR pass the renderer reads it from
+    preview: str = "light"  # its tile in the dataset preview: light | color | normal | depth | grey
+    drop_rank: int | None = None  # the fit's input ablation tries groups in this order (None: never dropped)
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -37,26 +40,33 @@ class Group:
 
 GROUPS: dict[str, Group] = {g.name: g for g in (
     Group("albedo", ("R", "G", "B"), "color", "eevee", "use_pass_diffuse_color", "reflectance",
-          "EEVEE Diffuse Color pass."),
+          "EEVEE Diffuse Color pass.", render_pass="Diffuse Color", preview="color", drop_rank=7),
     Group("normal", ("X", "Y", "Z"), "normal", "eevee", "use_pass_normal", "unit vector",
-          "Shading normal in CAMERA space (+X right, +Y up, +Z towards the camera); (0,0,0) where nothing is hit."),
+          "Shading normal in CAMERA space (+X right, +Y up, +Z towards the camera); (0,0,0) where nothing is hit.",
+          render_pass="Normal", preview="normal", drop_rank=4),
     Group("depth", ("Z",), "depth", "eevee", "use_pass_z", "scene units",
-          "EEVEE Depth pass: distance along the view axis; the camera's clip end (or larger) where nothing is hit."),
+          "EEVEE Depth pass: distance along the view axis; the camera's clip end (or larger) where nothing is hit.",
+          render_pass="Depth", preview="depth", drop_rank=3),
     Group("direct", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
-          "EEVEE Diffuse Direct light with hard shadows (tiny lights, no GI, black world)."),
+          "EEVEE Diffuse Direct light with hard shadows (tiny lights, no GI, black world).", render_pass="Diffuse Direct",
+          drop_rank=6),
     Group("world", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "World light alone, unoccluded: EEVEE's Diffuse Direct pass of a render with the lights hidden and the "
           "world lighting (no shadows from the world, no bounces). 0 where nothing is hit and in a black world. "
-          "Tells the network how much light the sky can bring, which no other input shows."),
+          "Tells the network how much light the sky can bring, which no other input shows.",
+          render_pass="Diffuse Direct", drop_rank=0),  # of a second render; first to drop: it costs that render
     Group("ao", ("Y",), "unit", "eevee", "use_pass_ambient_occlusion", "[0,1]",
-          "EEVEE Ambient Occlusion pass (grey, one channel kept)."),
+          "EEVEE Ambient Occlusion pass (grey, one channel kept).", render_pass="Ambient Occlusion", preview="grey",
+          drop_rank=2),
     Group("eevee", ("R", "G", "B", "A"), "light", "eevee", None, "linear radiance (HDR)",
-          "EEVEE's own direct-lit Combined image with the same hard lights; the 'local illumination' baseline."),
+          "EEVEE's own direct-lit Combined image with the same hard lights; the 'local illumination' baseline.",
+          render_pass="Combined"),
     Group("ref", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
-          "Cycles path-traced reference with the lights' real radius: the training target."),
+          "Cycles path-traced reference with the lights' real radius: the training target.", render_pass="Combined"),
 )}
 
 # Derived input groups: computed from stored groups, never stored or rendered themselves.
+# (their drop ranks among the stored groups' ``Group.drop_rank``: DERIVED_DROP_RANK)
 DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
     "lit": (("albedo", "direct"), 3, "albedo * direct: the direct-lit diffuse image (linear radiance, HDR)."),
     "scene": (("albedo", "direct", "normal"), 7,
@@ -65,6 +75,8 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
               "level, which sets the indirect light everywhere (a per-image linear fit beat the global one by "
               "2.4 dB, docs/model.md). Computed on the full image, so crops and tiles see the same values."),
 }
+
+DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5}
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
@@ -75,6 +87,12 @@ INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "w
 TARGET_GROUP = "ref"
 # The seed's 13 inputs.
 DEFAULT_INPUTS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "lit")
+
+
+def drop_order() -> tuple[str, ...]:
+    """The input groups the fit's ablation may remove, cheapest pass to lose first (``Group.drop_rank``)."""
+    rank = {g.name: g.drop_rank for g in GROUPS.values() if g.drop_rank is not None} | DERIVED_DROP_RANK
+    return tuple(sorted(rank, key=lambda g: (rank[g], g)))
 
 
 def group_size(name: str) -> int:

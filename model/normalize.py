@@ -27,10 +27,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import channels as ch
+from . import channels as ch, images
 
 LIGHT_MAX = 65504.0
-DEPTH_BACKGROUND = 1e9  # depths at or above this (or non-finite, or <= 0) are "nothing hit"
+DEPTH_BACKGROUND = images.DEPTH_BACKGROUND
 DESCRIPTION = {
     "version": 1,
     "repair": "NaN->0, +Inf->65504 (depth: background), -Inf->0; light clamped >=0, albedo/ao to [0,1]",
@@ -88,27 +88,12 @@ def repair(groups: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], int]:
     return out, int(bad.sum()) if bad is not None else 0
 
 
-def geometry_mask(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
-    """HxW bool: pixels where something was hit (see module doc)."""
-    z = np.asarray(depth, dtype=np.float32)
-    if z.ndim == 3:
-        z = z[..., 0]
-    with np.errstate(invalid="ignore"):
-        m = (z > 0) & (z < DEPTH_BACKGROUND)  # False for NaN and +-inf
-    if normal is not None:
-        n = np.asarray(normal, dtype=np.float32)
-        with np.errstate(invalid="ignore", over="ignore"):
-            n2 = np.einsum("...i,...i->...", n, n)
-        m &= (n2 > 0.25) | np.isinf(n2)  # NaN compares False
-    return m
-
-
 def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
     """HxWx1 float32 in [0, 1]: z/(z+median), background 1. Scale free and finite for any input."""
     z = np.asarray(depth, dtype=np.float32)
     if z.ndim == 3:
         z = z[..., 0]
-    geo = geometry_mask(z, normal)
+    geo = images.geometry_mask(z, normal)
     out = np.ones(z.shape, dtype=np.float32)
     zg = z[geo]
     if zg.size:
@@ -126,6 +111,7 @@ def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
         return np.minimum(groups["albedo"] * groups["direct"], LIGHT_MAX).astype(np.float32)
     if name == "scene":
         alb, lit = groups["albedo"], derived("lit", groups)
+        # its own geometry rule, not images.geometry_mask: the shipped model was trained on it (images.py)
         geo = np.abs(groups["normal"]).sum(-1) > 0.5 if "normal" in groups else np.ones(alb.shape[:2], bool)
         stats = np.zeros(7, np.float32)
         if geo.any():

@@ -31,11 +31,11 @@ def report_models(scene) -> list[Path]:
 
 def check(scene) -> tuple[Path, list[Path], Path]:
     """(dataset, models, out) of the scene's settings, or a UserError naming what is wrong."""
-    from ..model.learn.data import read_manifest
+    from ..model.dataset.folder import open_folder
 
     s = scene.ssgi
     data = Path(bpy.path.abspath(s.dataset_dir).rstrip("/\\") or ".")
-    read_manifest(data)
+    open_folder(data, scenes=True)
     models = report_models(scene)
     if not models:
         raise UserError("no model to report on: set the scene's model or add models to the Report panel")

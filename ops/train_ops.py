@@ -27,8 +27,8 @@ class SSGI_OT_train(bpy.types.Operator):
         try:
             cfg = training.config_from_scene(context.scene)
             cfg.check()
-            from ..model.learn.data import read_manifest
-            read_manifest(cfg.data)  # a missing or foreign dataset is reported now, not from the thread
+            from ..model.dataset.folder import open_folder
+            open_folder(cfg.data, scenes=True)  # a missing or foreign dataset is reported now, not from the thread
             training.start(context.scene)
         except (UserError, RuntimeError) as e:
             self.report({"ERROR"}, str(e))

@@ -1,8 +1,8 @@
 """OpenEXR I/O for dataset samples, through the OpenEXR Python package (bpy-free).
 
 A sample is one single-part EXR with channels ``<group>.<component>`` (see ``channels.py``), stored as half
-(``float16``) or float (``float32``). Files are written to a temporary name in the same folder and renamed
-when complete, so a killed writer never leaves a half-written sample under its final name.
+(``float16``) or float (``float32``). Files are written atomically (``files.atomic_write``), so a killed writer never leaves a
+half-written sample under its final name.
 """
 from __future__ import annotations
 
@@ -15,14 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, files
 from ..errors import UserError
-
-
-def atomic_path(path: Path) -> Path:
-    """The temporary name a file is written under before it is renamed to ``path``."""
-    path = Path(path)
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
 def write_exr(path, planes: dict[str, np.ndarray], half: bool = True, header: dict | None = None) -> None:
@@ -42,16 +36,15 @@ def write_exr(path, planes: dict[str, np.ndarray], half: bool = True, header: di
     hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     for k, v in (header or {}).items():
         hdr[k] = str(v)
-    tmp = atomic_path(path)
-    try:
+
+    def write(tmp):
         with OpenEXR.File(hdr, chans) as f:
             f.write(str(tmp))
-        os.replace(tmp, path)
+
+    try:
+        files.atomic_write(path, write)
     except RuntimeError as e:  # the binding's write errors ("Failed to write pixel data ... File too large.")
         raise OSError(f"{path}: could not write the OpenEXR file ({e})") from None
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 _STDOUT_LOCK = threading.RLock()  # re-entrant: blocks nest (render_cli wraps whole commands)

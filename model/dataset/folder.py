@@ -1,8 +1,14 @@
-"""Dataset folders (bpy-free): the manifest, verification, shard merging and the contact sheet.
+"""The dataset format's one owner (bpy-free): the settings schema, sample paths, the manifest readers and
+writer, verification and shard merging. (The contact sheet is ``preview.py``; a sample's channels ``exrio.py``.)
 
-A dataset folder holds ``manifest.json`` and one EXR per sample named by its index (``000042.exr``, see
-``exrio``). A shard of a farm bake (``bake --shard i/n``) writes ``manifest.shard-i-of-n.json`` instead;
+A dataset folder holds ``manifest.json`` and one EXR per sample named by its key (``000042.exr``,
+``sample_path``). A shard of a farm bake (``bake --shard i/n``) writes ``manifest.shard-i-of-n.json`` instead;
 ``merge`` joins the shard manifests into ``manifest.json``. Every manifest is written atomically.
+
+Reading: ``read_manifest(file)`` checks one manifest file; ``open_folder(folder, shards=..., scenes=...)`` is the
+entry for a whole folder (the one every reader uses: training, fit, report, verify, preview, the operators).
+Writing: the baker builds its settings with ``settings(...)`` (the keys that make samples comparable are
+``IDENTITY_SETTINGS``), opens the folder with ``prepare_folder`` and writes with ``write_manifest``.
 
 manifest.json::
 
@@ -17,16 +23,14 @@ neither key.
 """
 from __future__ import annotations
 
+import hashlib
 import json
-import math
-import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, files
 from . import exrio
 from ..errors import UserError
 
@@ -37,12 +41,34 @@ IDENTITY_SETTINGS = ("kind", "size", "ref_samples", "ref_target_db", "denoise", 
                      "scenes", "frames", "half")
 
 
+def settings(kind: str, size, ref_samples: int, denoise: bool, eevee_samples: int, *, diffuse_bounces: int,
+             eevee: dict, ref_target_db: float | None = None, first_seed: int | None = None, scenes=None, frames=None,
+             half: bool = True) -> dict:
+    """The ``settings`` table of a baked dataset's manifest (the schema: module doc). ``eevee``: the G-buffer
+    renderer's settings as the baker applies them (written as they are); ``kind`` "rooms" (with ``first_seed``)
+    or "scenes" (with ``scenes`` and ``frames``)."""
+    s = {"kind": kind, "size": [int(size[0]), int(size[1])], "ref_samples": int(ref_samples),
+         "ref_target_db": ref_target_db, "denoise": bool(denoise), "eevee_samples": int(eevee_samples),
+         "diffuse_bounces": int(diffuse_bounces), "half": bool(half),
+         "cycles": {"adaptive_sampling": False, "clamp_direct": 0.0, "clamp_indirect": 0.0,
+                    "denoiser": "OPENIMAGEDENOISE" if denoise else None,
+                    "denoising_input_passes": "RGB_ALBEDO_NORMAL" if denoise else None},
+         "eevee": dict(eevee)}
+    if first_seed is not None:
+        s["first_seed"] = int(first_seed)
+    if scenes is not None:
+        s["scenes"] = [str(x) for x in scenes]
+        s["frames"] = frames
+    return s
+
+
 def sample_name(index: int) -> str:
     return f"{int(index):06d}"
 
 
-def sample_path(folder, name: str) -> Path:
-    return Path(folder) / f"{name}.exr"
+def sample_path(folder, key: str) -> Path:
+    """The one rule for a sample's file: ``FOLDER/KEY.exr``."""
+    return Path(folder) / f"{key}.exr"
 
 
 def shard_manifest_name(shard: tuple[int, int] | None) -> str:
@@ -76,19 +102,37 @@ def read_manifest(path) -> dict:
     return m
 
 
-def load_manifest(folder) -> dict:
-    return read_manifest(Path(folder) / MANIFEST)
+def open_folder(folder, shards: bool = False, scenes: bool = False) -> dict:
+    """The manifest of dataset folder ``folder``, checked (``read_manifest``). UserError names the fault.
+
+    ``shards``: while a farm bake runs (no merge yet), the union of its shard manifests, read-only.
+    ``scenes``: every sample must name its scene (the train/validation split is by scene)."""
+    folder = Path(folder)
+    path = folder / MANIFEST
+    if not folder.is_dir():
+        raise UserError(f"{folder}: dataset folder does not exist")
+    parts = sorted(folder.glob("manifest.shard-*.json")) if shards and not path.exists() else []
+    if parts:
+        ms = [read_manifest(p) for p in parts]
+        m = {**ms[0], "samples": dict(sorted(kv for m in ms for kv in m["samples"].items()))}
+    elif not path.is_file():
+        raise UserError(f"{path}: no manifest.json in the dataset folder (bake one with `cli.py bake`)")
+    else:
+        m = read_manifest(path)
+    if scenes:
+        for key, s in m["samples"].items():
+            if not isinstance(s, dict) or "scene" not in s:
+                raise UserError(f"{path}: sample {key!r} has no 'scene' id")
+    return m
+
+
+def manifest_sha256(folder) -> str:
+    """What names a dataset's contents in a checkpoint: the hash of its manifest file."""
+    return hashlib.sha256((Path(folder) / MANIFEST).read_bytes()).hexdigest()
 
 
 def write_manifest(folder, manifest: dict, name: str = MANIFEST) -> None:
-    path = Path(folder) / name
-    tmp = exrio.atomic_path(path)
-    try:
-        tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=float))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    files.write_json(Path(folder) / name, manifest, indent=1, sort_keys=True, default=float)
 
 
 def check_compatible(manifest: dict, settings: dict, where) -> None:
@@ -106,11 +150,9 @@ def _check_writable(folder: Path) -> None:
     """Write and delete a probe file: os.access says yes to root even on folders that refuse every write
     (read-only mounts aside), so only a real write tells."""
     try:
-        fd, probe = tempfile.mkstemp(dir=folder, prefix=".ssgi-write-test-", suffix=".tmp")
+        files.scratch("ssgi-write-test", folder=folder).unlink()
     except OSError as e:
         raise UserError(f"--out {folder}: folder is not writable ({e.strerror})") from None
-    os.close(fd)
-    os.unlink(probe)
 
 
 def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> dict:
@@ -143,24 +185,6 @@ def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> 
             raise UserError(f"--out {folder}: not empty and not an SSGI dataset (holds {', '.join(sorted(foreign)[:5])}); "
                             f"choose an empty or new folder")
     return new_manifest(settings, blender_version)
-
-
-TEMP_RE = re.compile(r"^\.(.+)\.\d+\.tmp$")  # exrio.atomic_path: .FINAL_NAME.PID.tmp
-
-
-def remove_temp_files(folder, owned=None) -> int:
-    """Delete temporary files a killed job left behind (never final names). Returns how many.
-
-    ``owned(final_name) -> bool`` limits this to the files a job owns (a shard's samples and manifest), so that
-    a shard (re)started beside a running one never deletes the other's file in flight."""
-    n = 0
-    for p in Path(folder).glob(".*.tmp"):
-        m = TEMP_RE.match(p.name)
-        if owned is not None and not (m and owned(m.group(1))):
-            continue
-        p.unlink(missing_ok=True)
-        n += 1
-    return n
 
 
 def stored_groups(manifest: dict) -> tuple[str, ...]:
@@ -220,82 +244,18 @@ def verify(folder) -> list[str]:
     folder = Path(folder)
     problems: list[str] = []
     try:
-        m = load_manifest(folder)
+        m = open_folder(folder)
     except UserError as e:
         return [str(e)]
     size = m.get("settings", {}).get("size")
-    files = {SAMPLE_RE.match(p.name).group(1): p for p in folder.iterdir() if SAMPLE_RE.match(p.name)}
-    for name in sorted(set(m["samples"]) - set(files)):
+    found = {SAMPLE_RE.match(p.name).group(1): p for p in folder.iterdir() if SAMPLE_RE.match(p.name)}
+    for name in sorted(set(m["samples"]) - set(found)):
         problems.append(f"{sample_path(folder, name)}: listed in the manifest but missing")
-    for name in sorted(set(files) - set(m["samples"])):
-        problems.append(f"{files[name]}: not listed in the manifest (incomplete sample?)")
-    for name in sorted(set(files) & set(m["samples"])):
-        problems.extend(check_sample(files[name], size, stored_groups(m)))
-    temps = sorted(p.name for p in folder.glob(".*.tmp"))
+    for name in sorted(set(found) - set(m["samples"])):
+        problems.append(f"{found[name]}: not listed in the manifest (incomplete sample?)")
+    for name in sorted(set(found) & set(m["samples"])):
+        problems.extend(check_sample(found[name], size, stored_groups(m)))
+    temps = sorted(p.name for p in folder.iterdir() if files.TEMP_RE.match(p.name))
     if temps:
         problems.append(f"{folder}: temporary file(s) left over: {', '.join(temps[:5])}")
     return problems
-
-
-def tonemap8(x: np.ndarray) -> np.ndarray:
-    """Linear HDR -> 8-bit sRGB for viewing: Reinhard x/(1+x), then the sRGB curve."""
-    x = np.nan_to_num(np.maximum(x, 0.0), nan=0.0, posinf=1e4)
-    t = x / (1.0 + x)
-    s = np.where(t <= 0.0031308, 12.92 * t, 1.055 * np.power(t, 1 / 2.4) - 0.055)
-    return (np.clip(s, 0, 1) * 255 + 0.5).astype(np.uint8)
-
-
-def _tile(group: str, a: np.ndarray) -> np.ndarray:
-    if group == "normal":
-        return (np.clip(a * 0.5 + 0.5, 0, 1) * 255).astype(np.uint8)
-    if group == "depth":
-        d = a[..., 0]
-        fin = d[np.isfinite(d) & (d < 1e4)]
-        s = float(np.median(fin)) if fin.size else 1.0
-        v = d / (d + s)
-        return (np.repeat(np.clip(1 - v, 0, 1)[..., None], 3, -1) * 255).astype(np.uint8)
-    if group in ("ao",):
-        return (np.repeat(np.clip(a, 0, 1), 3, -1) * 255).astype(np.uint8)
-    if group == "albedo":
-        return tonemap8(a / np.maximum(1e-6, 1 - np.clip(a, 0, 0.999)))  # show albedo as is
-    return tonemap8(a[..., :3])
-
-
-def load_samples_manifest(folder) -> dict:
-    """manifest.json, or while a farm bake runs (no merge yet) the union of its shard manifests, read-only."""
-    folder = Path(folder)
-    parts = sorted(folder.glob("manifest.shard-*.json"))
-    if (folder / MANIFEST).exists() or not parts:
-        return load_manifest(folder)
-    ms = [read_manifest(p) for p in parts]
-    return {**ms[0], "samples": dict(sorted(kv for m in ms for kv in m["samples"].items()))}
-
-
-def preview(folder, out, max_samples: int = 12) -> dict:
-    """Contact sheet: one row per sample, columns = the stored groups (tonemapped), reference last."""
-    from PIL import Image, ImageDraw
-
-    m = load_samples_manifest(folder)
-    names = sorted(m["samples"])[:max_samples]
-    if not names:
-        raise UserError(f"{folder}: dataset has no samples to preview")
-    cols = tuple(g for g in ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
-                 if g in stored_groups(m))
-    rows = []
-    for n in names:
-        g = exrio.read_sample(sample_path(folder, n), cols)
-        rows.append(np.concatenate([_tile(c, g[c]) for c in cols], axis=1))
-    sheet = np.concatenate(rows, axis=0)
-    label_h = 14
-    img = Image.new("RGB", (sheet.shape[1], sheet.shape[0] + label_h), (0, 0, 0))
-    img.paste(Image.fromarray(sheet), (0, label_h))
-    d = ImageDraw.Draw(img)
-    w = sheet.shape[1] // len(cols)
-    for i, c in enumerate(cols):
-        d.text((i * w + 3, 1), c, fill=(255, 255, 255))
-    out = Path(out)
-    tmp = exrio.atomic_path(out)
-    img.save(tmp, format="PNG")
-    os.replace(tmp, out)
-    return {"sheet": str(out), "samples": len(names)}
-

@@ -10,14 +10,11 @@ settings, samples{key: seed, scene, camera, frame, timings}) and ``000000.exr`` 
 """
 from __future__ import annotations
 
-import json
-import os
 from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
-from . import exrio
+from . import exrio, folder
 
 
 def sample(w: int, h: int, seed: int, scene_seed: int) -> dict[str, np.ndarray]:
@@ -63,14 +60,12 @@ def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int 
     k = 0
     for s in range(scenes):
         for v in range(per_scene):
-            key = f"{k:06d}"
+            key = folder.sample_name(k)
             sd = seed * 100003 + k
-            exrio.write_sample(root / f"{key}.exr", sample(w, h, sd, seed * 1009 + s), half=half)
+            exrio.write_sample(folder.sample_path(root, key), sample(w, h, sd, seed * 1009 + s), half=half)
             samples[key] = dict(seed=sd, scene=f"synthetic-{seed}-{s}", camera=v, frame=1, timings={})
             k += 1
-    m = dict(format_version=ch.FORMAT_VERSION, blender_version="synthetic", channel_spec=ch.describe(),
-             settings=dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), samples=samples)
-    tmp = root / f".manifest.json.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(m, indent=1))
-    os.replace(tmp, root / "manifest.json")
+    m = folder.new_manifest(dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), "synthetic")
+    m["samples"] = samples
+    folder.write_manifest(root, m)
     return root

@@ -11,10 +11,10 @@ module a *raw* record (plain data, JSON-able) plus the images of each scene. Thi
   each method's own cost;
 - ``examples.png``: one scene, every method side by side (whole image + a 2x crop), Cycles at equal time.
 
-Metrics per image (``image_metrics``): PSNR by the seed's convention (linear RGB clamped to [0, 1], MSE
+Metrics per image (``metrics.score``): PSNR by the seed's convention (linear RGB clamped to [0, 1], MSE
 pooled over pixels and channels; over several scenes the MSE is pooled over all of them), PSNR after the
-Reinhard tonemap (metrics.tm_psnr), SSIM (metrics.ssim) and HDR-FLIP (``flip``, NVIDIA's flip-evaluator on
-the linear HDR images; 0 = identical, higher = worse). A method's "mean" is the pooled PSNR / the mean SSIM
+Reinhard tonemap, SSIM and HDR-FLIP (NVIDIA's flip-evaluator on the linear HDR images; 0 = identical,
+higher = worse). A method's "mean" is the pooled PSNR / the mean SSIM
 and FLIP over scenes; its "worst" is the scene with the lowest PSNR (and highest FLIP), named.
 
 Equal-quality speed-up (``equal_quality``): on the Cycles + OIDN ladder (mean time per image against pooled
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import metrics
+from .. import files, images, metrics
 from ..errors import UserError
 
 FAMILIES = {  # family -> (label, colour, marker)
@@ -53,56 +53,13 @@ PNG_EXPOSURE = 1.0
 # ------------------------------------------------------------------------------------------------ metrics
 
 
-def _clean(a) -> np.ndarray:
-    a = np.nan_to_num(np.asarray(a, dtype=np.float32)[..., :3], nan=0.0, posinf=65504.0, neginf=0.0)
-    return np.ascontiguousarray(np.maximum(a, 0.0))
-
-
-def flip(pred, ref) -> float:
-    """Mean HDR-FLIP error of linear HDR RGB ``pred`` against ``ref`` (flip-evaluator; 0 = identical).
-
-    Negative and NaN values count as 0. A reference with no light at all (max 0) has no exposure range for
-    HDR-FLIP: both images are then scored by LDR-FLIP after clamping to [0, 1]."""
-    import flip_evaluator
-
-    p, r = _clean(pred), _clean(ref)
-    if p.shape != r.shape:
-        raise ValueError(f"shapes differ: {p.shape} vs {r.shape}")
-    if float(r.max(initial=0.0)) <= 0.0:
-        _, mean, _ = flip_evaluator.evaluate(r.clip(0, 1), p.clip(0, 1), "LDR", inputsRGB=False, applyMagma=False)
-    else:
-        _, mean, _ = flip_evaluator.evaluate(r, p, "HDR", applyMagma=False)
-    return float(mean)
-
-
-def image_metrics(pred, ref, mask=None) -> dict:
-    """Every metric of one image, plus the squared errors the pooled PSNRs need.
-
-    ``mask`` (HxW bool, normalize.geometry_mask): the pixels scored, as the trainer's validation does. Where
-    nothing was hit the world shows, which the G-buffer does not describe and the SSGI node composites from
-    EEVEE; PSNRs pool only the masked pixels, SSIM and FLIP see the reference pasted in elsewhere."""
-    pred, ref = np.asarray(pred)[..., :3], np.asarray(ref)[..., :3]
-    if mask is not None and not mask.all():
-        pm, rm = pred[mask], ref[mask]
-        pred = np.where(mask[..., None], pred, ref)
-    else:
-        pm, rm = pred, ref
-    p = metrics.PooledPSNR()
-    t = metrics.PooledPSNR(tonemapped=True)
-    if pm.size:
-        p.add(pm, rm)
-        t.add(pm, rm)
-    return dict(psnr=p.value, tm_psnr=t.value, ssim=metrics.ssim(pred, ref), flip=flip(pred, ref),
-                mse=p.mse, tm_mse=t.mse, pixels=int(p.n))
-
-
 _PEAK_CODE = r"""
 import json, sys, time
 sys.path.insert(0, sys.argv[1])
 import cli
 pkg = cli.load_package()
 from importlib import import_module
-ck, bench = import_module(pkg.__name__ + ".model.learn.checkpoint"), import_module(pkg.__name__ + ".model.infer.bench")
+ck, bench = import_module(pkg.__name__ + ".model.infer.predictor"), import_module(pkg.__name__ + ".model.infer.bench")
 w, h, threads = int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
 pred = ck.load_predictor(sys.argv[2], num_threads=threads)
 g = bench.synthetic_groups(w, h)
@@ -134,7 +91,7 @@ def temporal_change(preds, refs) -> dict:
     mean over consecutive frame pairs of mean |e_t - e_{t-1}|, with e = tonemap(pred) - tonemap(ref)."""
     if len(preds) != len(refs) or len(preds) < 2:
         raise ValueError("temporal_change needs at least two frames and one reference per frame")
-    errs = [metrics.tonemap(_clean(p)) - metrics.tonemap(_clean(r)) for p, r in zip(preds, refs)]
+    errs = [metrics.tonemap(metrics.clean(p)) - metrics.tonemap(metrics.clean(r)) for p, r in zip(preds, refs)]
     steps = [float(np.mean(np.abs(b - a))) for a, b in zip(errs, errs[1:])]
     return dict(change=float(np.mean(steps)), per_step=steps, mean_abs_error=float(np.mean([np.mean(np.abs(e)) for e in errs])))
 
@@ -377,19 +334,6 @@ def targets(raw) -> dict:
 # ------------------------------------------------------------------------------------------------ outputs
 
 
-def atomic_write(path, write) -> Path:
-    """Call ``write(tmp_path)`` and rename the result to ``path``."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
-
-
 def _json_default(o):
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
@@ -412,8 +356,7 @@ def _finite_or_str(o):
 
 
 def write_json(path, raw: dict) -> Path:
-    text = json.dumps(_finite_or_str(raw), indent=1, default=_json_default, allow_nan=False)
-    return atomic_write(path, lambda p: Path(p).write_text(text))
+    return files.write_json(path, _finite_or_str(raw), indent=1, default=_json_default, allow_nan=False)
 
 
 def machine() -> dict:
@@ -462,7 +405,7 @@ def _save_fig(fig, path) -> Path:
     """Write a matplotlib figure as PNG atomically and close it."""
     import matplotlib.pyplot as plt
     try:
-        return atomic_write(path, lambda p: fig.savefig(p, format="png"))
+        return files.atomic_write(path, lambda p: fig.savefig(p, format="png"))
     finally:
         plt.close(fig)
 
@@ -522,12 +465,6 @@ def pareto_png(raw: dict, path) -> Path:
     return _save_fig(fig, path)
 
 
-def srgb_preview(lin, exposure: float = PNG_EXPOSURE) -> np.ndarray:
-    """HxWx3 linear HDR -> float sRGB [0, 1] (the Reinhard tonemap of metrics.tonemap, then the sRGB curve)."""
-    t = metrics.tonemap(np.asarray(lin, dtype=np.float64)[..., :3] * exposure)
-    return np.clip(np.where(t <= 0.0031308, 12.92 * t, 1.055 * np.power(t, 1 / 2.4) - 0.055), 0, 1)
-
-
 def crop_box(h: int, w: int, err: np.ndarray | None = None) -> tuple[int, int, int, int]:
     """A half-size box (y0, y1, x0, x1): around the largest error of ``err`` (HxW) when given, else centred."""
     ch_, cw = max(1, h // 2), max(1, w // 2)
@@ -560,7 +497,7 @@ def examples_png(tiles, path, title: str = "", err: np.ndarray | None = None, co
     for ax in axes.flat:
         ax.axis("off")
     for i, (name, img) in enumerate(tiles):
-        im = srgb_preview(img)
+        im = images.srgb(img, PNG_EXPOSURE)
         crop = im[y0:y1, x0:x1].repeat(2, axis=0).repeat(2, axis=1)[:h, :w]
         cell = np.ones((2 * h + gap, w, 3))
         cell[:h] = im
@@ -696,18 +633,18 @@ def write_outputs(raw: dict, images: dict, out) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     analyse(raw)
     ex = example_scene(raw, images)
-    files = {}
+    written = {}
     if ex is not None:
         tiles, err = example_tiles(raw, images[ex])
-        files["examples"] = str(examples_png(tiles, out / "examples.png", err=err,
+        written["examples"] = str(examples_png(tiles, out / "examples.png", err=err,
                                              title=f"scene {ex}: each method; Cycles at equal time to the default model "
                                                    f"(tonemapped x/(1+x), sRGB; box = 2x crop below)"))
         raw["example_scene"] = ex
-    files["pareto"] = str(pareto_png(raw, out / "pareto.png"))
-    raw["files"] = dict(files, json=str(out / "report.json"), md=str(out / "report.md"))
-    files["md"] = str(atomic_write(out / "report.md", lambda p: Path(p).write_text(report_md(raw))))
-    files["json"] = str(write_json(out / "report.json", raw))
-    return files
+    written["pareto"] = str(pareto_png(raw, out / "pareto.png"))
+    raw["files"] = dict(written, json=str(out / "report.json"), md=str(out / "report.md"))
+    written["md"] = str(files.write_text(out / "report.md", report_md(raw)))
+    written["json"] = str(write_json(out / "report.json", raw))
+    return written
 
 
 def example_scene(raw, images):

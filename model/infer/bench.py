@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import channels as ch
 from ..errors import UserError
 
 
@@ -36,14 +37,21 @@ def _reset_peak() -> bool:
 
 
 def synthetic_groups(w: int, h: int, seed: int = 0) -> dict[str, np.ndarray]:
+    """Random inputs for every stored input group of the channel spec (by its kind when not listed here)."""
     rng = np.random.default_rng(seed)
     n = rng.normal(size=(h, w, 3)).astype(np.float32)
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    return dict(albedo=rng.uniform(0, 1, (h, w, 3)).astype(np.float32), normal=n,
-                depth=rng.uniform(1, 10, (h, w, 1)).astype(np.float32),
-                direct=rng.exponential(1.0, (h, w, 3)).astype(np.float32),
-                ao=rng.uniform(0, 1, (h, w, 1)).astype(np.float32),
-                world=np.broadcast_to(rng.uniform(0, 1, 3).astype(np.float32), (h, w, 3)).copy())
+    g = dict(albedo=rng.uniform(0, 1, (h, w, 3)).astype(np.float32), normal=n,
+             depth=rng.uniform(1, 10, (h, w, 1)).astype(np.float32),
+             direct=rng.exponential(1.0, (h, w, 3)).astype(np.float32),
+             ao=rng.uniform(0, 1, (h, w, 1)).astype(np.float32),
+             world=np.broadcast_to(rng.uniform(0, 1, 3).astype(np.float32), (h, w, 3)).copy())
+    for name in ch.required_groups(ch.INPUT_GROUPS):
+        if name not in g:
+            grp = ch.GROUPS[name]
+            draw = rng.exponential(1.0, (h, w, grp.size)) if grp.kind == "light" else rng.uniform(0, 1, (h, w, grp.size))
+            g[name] = draw.astype(np.float32)
+    return {k: v for k, v in g.items() if k in ch.GROUPS}
 
 
 def _parse_size(s: str) -> tuple[int, int]:
@@ -74,6 +82,7 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
     import torch
 
     from ..learn import checkpoint, network, variants as V
+    from . import predictor
 
     torch.set_num_threads(threads)
     sizes = [_parse_size(s) for s in sizes]
@@ -99,7 +108,7 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
         label = name or str(model)
         macs = network.macs_per_pixel(net)
         for prec in precisions:
-            pred = checkpoint.Predictor(net, ckpt, path=label, precision=prec)
+            pred = predictor.Predictor(net, ckpt, path=label, precision=prec)
             for w, h in sizes:
                 r = time_predictor(pred, w, h, repeats if w * h < 1e6 else max(1, repeats // 2))
                 row = dict(model=label, precision=prec, size=f"{w}x{h}", params=network.count_params(net),

@@ -1,4 +1,4 @@
-"""Run a model on one sample file (``cli.py predict``), and image helpers (bpy-free).
+"""Run a model on one sample file (``cli.py predict``, bpy-free).
 
 The output EXR is a plain RGB float EXR (channels R, G, B: linear HDR radiance) that any viewer opens.
 ``--png`` also writes a preview: Reinhard tonemap x/(1+x) after an exposure scale, then the sRGB transfer
@@ -6,36 +6,15 @@ curve, 8 bit. When the sample holds a reference (``ref``), the PSNR of the predi
 """
 from __future__ import annotations
 
-import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, images
 from ..dataset import exrio
 from .. import metrics
 from ..errors import UserError
-
-
-def srgb8(lin: np.ndarray, exposure: float = 1.0) -> np.ndarray:
-    """HxWx3 linear HDR -> uint8 sRGB preview (Reinhard tonemap, then sRGB curve)."""
-    t = metrics.tonemap(np.asarray(lin, dtype=np.float64) * exposure)
-    s = np.where(t <= 0.0031308, 12.92 * t, 1.055 * np.power(t, 1 / 2.4) - 0.055)
-    return np.clip(np.round(s * 255), 0, 255).astype(np.uint8)
-
-
-def write_png(path, img8: np.ndarray) -> None:
-    from PIL import Image
-
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        Image.fromarray(img8).save(tmp, format="PNG")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def write_rgb_exr(path, rgb: np.ndarray, half: bool = False) -> None:
@@ -43,7 +22,7 @@ def write_rgb_exr(path, rgb: np.ndarray, half: bool = False) -> None:
 
 
 def predict_file(model, input_path, out, png=None, threads=None, tile=None) -> dict:
-    from ..learn.checkpoint import DEFAULT_TILE, load_predictor
+    from .predictor import DEFAULT_TILE, load_predictor
 
     pred = load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE)
     input_path = Path(input_path)
@@ -66,7 +45,7 @@ def predict_file(model, input_path, out, png=None, threads=None, tile=None) -> d
         if np.isfinite(ref).all():
             res.update(psnr=metrics.psnr(rgb, ref), tm_psnr=metrics.tm_psnr(rgb, ref), ssim=metrics.ssim(rgb, ref))
     if png:
-        write_png(png, srgb8(rgb))
+        images.write_png(png, images.srgb8(rgb))
         res["png"] = str(png)
     if not np.isfinite(rgb).all():  # cannot happen by construction; a loud guard
         raise UserError(f"{model}: produced a non-finite prediction for {input_path}")

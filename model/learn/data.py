@@ -4,16 +4,19 @@ The whole dataset is read once (300 samples of 240x135 are ~0.6 GB as float32 in
 ``x`` (C x H x W, ``normalize.to_inputs`` for the input spec) and ``y`` (3 x H x W, the Cycles reference in
 linear HDR RGB). A sample whose reference has a non-finite pixel is left out with a warning (it would poison
 the loss); its key is listed in ``skipped``. Inputs are repaired by normalize's rule and the repaired pixels
-counted in ``repaired``. ``mask`` marks the geometry pixels (normalize.geometry_mask of depth and normal):
+counted in ``repaired``. ``mask`` marks the geometry pixels (images.geometry_mask of depth and normal):
 pixels where nothing was hit show the world, which no input describes, so the loss, the validation metrics
 and the baseline's fit leave them out (the SSGI node composites the world there).
 
-Train and validation are split by scene (``split_scenes``): samples of one scene never sit on both sides.
+Train and validation are split by scene (``split_scenes``): samples of one scene never sit on both sides; or
+by an explicit list of keys (the fit's views of one scene: ``Trainer(split=...)``).
+
+``read_samples`` is the one reader of sample files and ``make_sample`` the one builder of a sample for an input
+spec: ``DatasetFolder.load`` builds each sample as it is read (training); ``StoredSamples`` keeps the stored
+groups to build samples for many specs (the fit).
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import random
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,30 +26,9 @@ import torch
 
 from .. import channels as ch
 from ..dataset import exrio
-from .. import normalize
-from ..dataset.folder import MANIFEST, stored_groups
-from ..dataset.folder import read_manifest as read_dataset_manifest
+from .. import images, normalize
+from ..dataset import folder
 from ..errors import UserError
-
-
-def read_manifest(root) -> dict:
-    """The manifest of a dataset folder, for reading samples: dataset.read_manifest's checks (one reader of the
-    format), plus the folder's own and the scene id each sample needs for the train/validation split."""
-    root = Path(root)
-    path = root / MANIFEST
-    if not root.is_dir():
-        raise UserError(f"{root}: dataset folder does not exist")
-    if not path.is_file():
-        raise UserError(f"{path}: no manifest.json in the dataset folder (bake one with `cli.py bake`)")
-    m = read_dataset_manifest(path)
-    for key, s in m["samples"].items():
-        if not isinstance(s, dict) or "scene" not in s:
-            raise UserError(f"{path}: sample {key!r} has no 'scene' id")
-    return m
-
-
-def manifest_sha256(root) -> str:
-    return hashlib.sha256((Path(root) / "manifest.json").read_bytes()).hexdigest()
 
 
 def split_scenes(scenes, val_fraction: float = 0.2, seed: int = 0) -> tuple[list[str], list[str]]:
@@ -68,7 +50,58 @@ class Sample:
     x: torch.Tensor  # C x H x W normalised inputs
     y: torch.Tensor  # 3 x H x W linear HDR reference
     repaired: int = 0
-    mask: torch.Tensor | None = None  # H x W bool: geometry pixels (normalize.geometry_mask); None = all
+    mask: torch.Tensor | None = None  # H x W bool: geometry pixels (images.geometry_mask); None = all
+
+
+def _groups_for(spec) -> tuple[str, ...]:
+    """The stored groups a sample for ``spec`` is built from: the spec's, plus the normals and depth (the
+    geometry mask; normals also mark the background for the depth normalisation, as the render path does) and
+    the reference."""
+    return tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
+
+
+def _check_stored(root: Path, manifest: dict, groups, spec) -> None:
+    lacking = [g for g in groups if g not in folder.stored_groups(manifest)]
+    if lacking:
+        raise UserError(f"{root / folder.MANIFEST}: this dataset was baked without the group(s) "
+                        f"{', '.join(lacking)} that the inputs {ch.format_spec(spec)!r} need; bake it again "
+                        f"with this version, or leave those inputs out (--inputs)")
+
+
+def read_samples(root, manifest: dict, groups, keys=None, progress=None, skipped=None):
+    """The one reader of sample files: yields (key, scene, {group: HxWxC}) for the samples of ``keys`` (default:
+    all; a key the manifest does not list is a UserError) in key order. A sample whose reference has a
+    non-finite pixel is not yielded; its key and why go into ``skipped``."""
+    root = Path(root)
+    items = sorted(manifest["samples"].items())
+    if keys is not None:
+        keys = sorted(set(map(str, keys)))
+        unknown = [k for k in keys if k not in manifest["samples"]]
+        if unknown:
+            raise UserError(f"{root / folder.MANIFEST}: lists no sample {unknown[0]!r}")
+        items = [(k, manifest["samples"][k]) for k in keys]
+    if not items:
+        raise UserError(f"{root / folder.MANIFEST}: the manifest lists no samples")
+    for key, meta in (progress(items) if progress else items):
+        path = folder.sample_path(root, key)
+        if not path.is_file():
+            raise UserError(f"{path}: listed in the manifest but missing (re-run `cli.py bake` to complete it)")
+        g = exrio.read_sample(path, groups)
+        y = normalize.target(g)
+        if not np.isfinite(y).all():
+            if skipped is not None:
+                skipped[key] = f"{int((~np.isfinite(y)).any(axis=-1).sum())} non-finite reference pixel(s)"
+            continue
+        yield key, str(meta["scene"]), g
+
+
+def make_sample(key: str, scene: str, g: dict, spec) -> Sample:
+    """One training sample from a sample's stored groups, built the way the Predictor builds its input."""
+    x, rep = normalize.to_inputs(g, spec)
+    y = np.ascontiguousarray(normalize.target(g))
+    mask = images.geometry_mask(g["depth"], g["normal"])
+    return Sample(key, scene, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
+                  torch.from_numpy(y).permute(2, 0, 1).contiguous(), rep, torch.from_numpy(mask))
 
 
 @dataclass
@@ -82,39 +115,16 @@ class DatasetFolder(torch.utils.data.Dataset):
 
     @classmethod
     def load(cls, root, spec=ch.DEFAULT_INPUTS, keys=None, progress=None) -> "DatasetFolder":
+        """Read the samples of ``keys`` (default: all) and build them for ``spec``, one at a time (the stored
+        groups are not kept)."""
         root = Path(root)
         spec = ch.parse_spec(spec)
-        m = read_manifest(root)
-        groups = tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
-        lacking = [g for g in groups if g not in stored_groups(m)]
-        if lacking:
-            raise UserError(f"{root / 'manifest.json'}: this dataset was baked without the group(s) "
-                            f"{', '.join(lacking)} that the inputs {ch.format_spec(spec)!r} need; bake it again "
-                            f"with this version, or leave those inputs out (--inputs)")
+        m = folder.open_folder(root, scenes=True)
+        groups = _groups_for(spec)
+        _check_stored(root, m, groups, spec)
         ds = cls(root=root, spec=spec, manifest=m)
-        items = sorted(m["samples"].items())
-        if keys is not None:
-            keys = set(keys)
-            items = [kv for kv in items if kv[0] in keys]
-        if not items:
-            raise UserError(f"{root / 'manifest.json'}: the manifest lists no samples")
-        it = items
-        if progress:
-            it = progress(items)
-        for key, meta in it:
-            path = root / f"{key}.exr"
-            if not path.is_file():
-                raise UserError(f"{path}: listed in the manifest but missing (re-run `cli.py bake` to complete it)")
-            g = exrio.read_sample(path, groups)
-            y = normalize.target(g)
-            if not np.isfinite(y).all():
-                ds.skipped[key] = f"{int((~np.isfinite(y)).any(axis=-1).sum())} non-finite reference pixel(s)"
-                continue
-            x, rep = normalize.to_inputs(g, spec)
-            mask = normalize.geometry_mask(g["depth"], g["normal"])
-            ds.samples.append(Sample(key, str(meta["scene"]), torch.from_numpy(x).permute(2, 0, 1).contiguous(),
-                                     torch.from_numpy(np.ascontiguousarray(y)).permute(2, 0, 1).contiguous(), rep,
-                                     torch.from_numpy(mask)))
+        for key, scene, g in read_samples(root, m, groups, keys, progress, ds.skipped):
+            ds.samples.append(make_sample(key, scene, g, spec))
         if not ds.samples:
             raise UserError(f"{root}: no usable sample (skipped: {ds.skipped})")
         return ds
@@ -140,8 +150,48 @@ class DatasetFolder(torch.utils.data.Dataset):
 
     def identity(self) -> dict:
         """What names this dataset in a checkpoint."""
-        return dict(path=str(self.root.resolve()), manifest_sha256=manifest_sha256(self.root),
+        return dict(path=str(self.root.resolve()), manifest_sha256=folder.manifest_sha256(self.root),
                     n_samples=len(self.samples), skipped=dict(self.skipped),
                     format_version=self.manifest.get("format_version"),
                     blender_version=self.manifest.get("blender_version"),
                     settings=self.manifest.get("settings", {}))
+
+
+class StoredSamples:
+    """The stored groups of some samples of a dataset folder, read once and kept, to build samples for many
+    input specs (the fit's size search and input ablation) without reading the files again. ``raw``:
+    {key: {group: HxWxC}}, every stored input group plus normal, depth and the reference."""
+
+    def __init__(self, root, keys=None, log=None):
+        self.root = Path(root)
+        self.manifest = folder.open_folder(self.root, scenes=True)
+        stored = folder.stored_groups(self.manifest)
+        groups = tuple(g for g in _groups_for(ch.INPUT_GROUPS) if g in stored)
+        self.skipped: dict[str, str] = {}
+        self.raw = {k: g for k, _scene, g in read_samples(self.root, self.manifest, groups, keys, skipped=self.skipped)}
+        self.scene = {k: str(self.manifest["samples"][k]["scene"]) for k in self.raw}
+        for k, why in self.skipped.items():
+            if log:
+                log(f"view {k}: left out ({why})")
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(H, W) of the samples; UserError when they differ."""
+        sizes = {v[ch.TARGET_GROUP].shape[:2] for v in self.raw.values()}
+        if len(sizes) > 1:
+            raise UserError(f"{self.root}: samples have different sizes {sorted(sizes)}")
+        return next(iter(sizes)) if sizes else (0, 0)
+
+    def keys(self, keys) -> list[str]:
+        """The usable ones of ``keys`` (not skipped), sorted."""
+        return [k for k in sorted(set(map(str, keys))) if k in self.raw]
+
+    def samples(self, spec, keys) -> list[Sample]:
+        spec = ch.parse_spec(spec)
+        _check_stored(self.root, self.manifest, _groups_for(spec), spec)
+        return [make_sample(k, self.scene[k], self.raw[k], spec) for k in self.keys(keys)]
+
+    def dataset(self, spec, keys) -> DatasetFolder:
+        spec = ch.parse_spec(spec)
+        return DatasetFolder(root=self.root, spec=spec, manifest=self.manifest, skipped=dict(self.skipped),
+                             samples=self.samples(spec, keys))

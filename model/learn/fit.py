@@ -20,7 +20,7 @@ Method (one time budget, ``minutes``, shared by all phases; a run stops early wh
    its val PSNR reaches the target. The first candidate that reaches the target is kept; when none does,
    the one with the best val PSNR is kept (and the report says the target was missed).
 3. **Input selection.** The kept network is fine-tuned briefly on its own inputs (the control) and, for each
-   input group the head does not need (``DROP_ORDER``), with that group removed: the first layers' weights
+   input group the head does not need (``channels.drop_order``: `world` first, a whole second EEVEE render), with that group removed: the first layers' weights
    for the removed channels are cut out (``drop_inputs``), the rest kept, and the same short fine-tune
    follows. A group is dropped when the val PSNR without it is at most ``drop_tol`` dB below the control's.
    Drops accumulate (each later trial starts from the last accepted network), and the comparison is always
@@ -36,22 +36,20 @@ drops normals (``normalize.to_inputs``), so a model that keeps depth but drops n
 """
 from __future__ import annotations
 
-import json
 import math
-import os
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from .. import channels as ch
-from ..infer import bench
+from ..infer import bench, predictor
 from . import checkpoint, data, network
-from ..dataset import exrio
-from .. import metrics, normalize
+from ..dataset import folder
+from .. import files, images, metrics, normalize
 from ..errors import UserError
 from .train import TrainConfig, Trainer, evaluate
 
@@ -60,11 +58,6 @@ DEFAULT_TARGET_PSNR = 30.0
 SIZE_SHARE = 0.5  # of the budget, for the size search
 ABLATION_SHARE = 0.3  # ... for the input ablation (control + one run per droppable group)
 MIN_RUN_S = 5.0  # a run shorter than this is not started
-# input groups tried for removal, in this order (cheapest pass to lose first)
-# `world` first: dropping it saves a whole second EEVEE render (docs/bake.md), and a scene without sky light
-# loses nothing without it
-DROP_ORDER = ("world", "scene", "ao", "depth", "normal", "lit", "direct", "albedo")
-HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
 
 # smallest first: (name, variant, overrides of network.arch_for). Narrow full-resolution levels: at 960x540
 # the full-resolution convolutions dominate the time (measured, docs/fit.md), so level 0 is 4-12 wide.
@@ -118,82 +111,6 @@ class FitConfig:
                 raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")
 
 
-# ---------------------------------------------------------------------------------------------- data
-
-class Views:
-    """The raw groups of every view, read once; ``dataset(spec, keys)`` builds training samples for a spec
-    the way the Predictor builds its input."""
-
-    def __init__(self, root, keys, log=None):
-        self.root = Path(root)
-        self.manifest = data.read_manifest(self.root)
-        self.raw: dict[str, dict[str, np.ndarray]] = {}
-        self.skipped: dict[str, str] = {}
-        groups = tuple(dict.fromkeys(ch.required_groups(ch.INPUT_GROUPS) + ("normal", "depth", ch.TARGET_GROUP)))
-        for key in sorted(set(map(str, keys))):
-            if key not in self.manifest["samples"]:
-                raise UserError(f"{self.root / 'manifest.json'}: lists no view {key!r}")
-            path = self.root / f"{key}.exr"
-            if not path.is_file():
-                raise UserError(f"{path}: listed in the manifest but missing (re-run the bake to complete it)")
-            g = exrio.read_sample(path, groups)
-            if not np.isfinite(normalize.target(g)).all():
-                self.skipped[key] = "non-finite reference pixel(s)"
-                if log:
-                    log(f"view {key}: left out ({self.skipped[key]})")
-                continue
-            self.raw[key] = g
-        sizes = {v["ref"].shape[:2] for v in self.raw.values()}
-        if len(sizes) > 1:
-            raise UserError(f"{self.root}: views have different sizes {sorted(sizes)}")
-        self.size = next(iter(sizes)) if sizes else (0, 0)  # (H, W)
-
-    def keys(self, keys) -> list[str]:
-        return [k for k in sorted(set(map(str, keys))) if k in self.raw]
-
-    def samples(self, spec, keys, label: str) -> list[data.Sample]:
-        spec = tuple(spec)
-        out = []
-        for k in self.keys(keys):
-            g = self.raw[k]
-            x, rep = normalize.to_inputs({n: g[n] for n in ch.required_groups(spec) + ("normal",)}, spec)
-            y = np.ascontiguousarray(normalize.target(g))
-            mask = normalize.geometry_mask(g["depth"], g["normal"])
-            out.append(data.Sample(k, label, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
-                                   torch.from_numpy(y).permute(2, 0, 1).contiguous(), rep, torch.from_numpy(mask)))
-        return out
-
-    def dataset(self, spec, train_keys, val_keys) -> data.DatasetFolder:
-        spec = ch.parse_spec(spec)
-        return data.DatasetFolder(root=self.root, spec=spec, manifest=self.manifest,
-                                  samples=self.samples(spec, train_keys, "fit-train") + self.samples(spec, val_keys, "fit-val"))
-
-
-class FitTrainer(Trainer):
-    """The project's Trainer with the views' own split (train / held-out val keys instead of a split by
-    scene) and, optionally, starting weights (fine-tuning)."""
-
-    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder, init_state: dict | None = None, log=None):
-        super().__init__(cfg, dataset=dataset, log=log)
-        self.init_state = init_state
-
-    def _setup(self):
-        super()._setup()  # split_scenes sees the two labels "fit-train" / "fit-val"; replaced here
-        ds = self.dataset
-        self.train_set = [s for s in ds.samples if s.scene == "fit-train"]
-        self.val_set = [s for s in ds.samples if s.scene == "fit-val"]
-        H = min(s.x.shape[1] for s in self.train_set)
-        W = min(s.x.shape[2] for s in self.train_set)
-        self.crop = (min(self.cfg.crop, H), min(self.cfg.crop, W))
-        area = np.mean([s.x.shape[1] * s.x.shape[2] for s in self.train_set])
-        self.cpi = self.cfg.crops_per_image or max(1, int(round(area / (self.crop[0] * self.crop[1]))))
-        self.identity["split"] = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set],
-                                      by="view")
-        if self.init_state is not None:
-            self.net.load_state_dict(self.init_state)
-            self._snapshot()
-
-
 # ---------------------------------------------------------------------------------------------- surgery
 
 def drop_inputs(net, new_spec) -> torch.nn.Module:
@@ -227,8 +144,8 @@ def drop_inputs(net, new_spec) -> torch.nn.Module:
 
 
 def droppable(spec, head: str) -> list[str]:
-    need = HEAD_NEEDS.get(head, ())
-    return [g for g in DROP_ORDER if g in spec and g not in need]
+    need = network.HEAD_NEEDS.get(head, ())
+    return [g for g in ch.drop_order() if g in spec and g not in need]
 
 
 # ---------------------------------------------------------------------------------------------- the driver
@@ -270,9 +187,9 @@ def _arch_label(arch: dict) -> str:
     return str(arch.get("variant"))
 
 
-def _predictor(net) -> checkpoint.Predictor:
+def _predictor(net) -> predictor.Predictor:
     """``net`` as the node runs it (Predictor.predict: output bound, 0 where the albedo is black)."""
-    return checkpoint.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
+    return predictor.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
 
 
 def _time_ms(net, size, repeats: int) -> float:
@@ -309,7 +226,7 @@ class Fitter:
         (net with the best val weights, summary). Stops early when the val PSNR reaches ``target``."""
         self._check_stop()
         spec = ch.parse_spec(spec)
-        ds = self.views.dataset(spec, self.train_keys, self.val_keys)
+        ds = self.views.dataset(spec, self.train_keys + self.val_keys)
         overrides = {k: v for k, v in arch.items() if k in network.BACKBONES[network.VARIANTS[arch["variant"]]["backbone"]][1]}
         self.runs += 1
         out = self.work / f"{self.runs:02d}_{name}.pt"
@@ -336,7 +253,7 @@ class Fitter:
                          run=name, val_psnr=d.get("val_psnr"), best_psnr=d.get("best_psnr"))
 
         quiet = []
-        tr = FitTrainer(tc, ds, init_state=init_state, log=quiet.append)
+        tr = Trainer(tc, ds, split=(self.train_keys, self.val_keys), init_state=init_state, log=quiet.append)
         res = tr.run(callback=cb, should_stop=stop)
         if cancelled["v"]:
             raise Cancelled()
@@ -350,7 +267,7 @@ class Fitter:
                          epochs=int(res["epochs"]), minutes=_f(res["minutes"]), reached=bool(reached["v"]))
 
     def _score(self, net, keys) -> dict:
-        samples = self.views.samples(tuple(net.arch["inputs"]), keys, "score")
+        samples = self.views.samples(tuple(net.arch["inputs"]), keys)
         if not samples:
             return {}
         ev = evaluate(net, samples)
@@ -369,11 +286,11 @@ class Fitter:
         try:
             for k in keys:
                 g = self.views.raw[k]
-                out, ref = pred.predict(g), normalize.target(g)
-                m = normalize.geometry_mask(g["depth"], g["normal"])
-                p.add(out[m], ref[m])
-                tp.add(out[m], ref[m])
-                ss.append(metrics.ssim(np.where(m[..., None], out, ref), ref))
+                r = metrics.score(pred.predict(g), normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
+                                  with_flip=False)
+                p.add_score(r)
+                tp.add_score(r)
+                ss.append(r["ssim"])
         finally:
             net.train(was_training)
         return dict(psnr=_f(p.value), tm_psnr=_f(tp.value), ssim=_f(float(np.mean(ss))))
@@ -389,7 +306,8 @@ class Fitter:
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
         self.work.mkdir(parents=True, exist_ok=True)
-        self.views = Views(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys), log=self.log)
+        self.views = data.StoredSamples(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys),
+                                        log=self.log)
         self.train_keys, self.val_keys = self.views.keys(cfg.train_keys), self.views.keys(cfg.val_keys)
         self.test_keys = self.views.keys(cfg.test_keys)
         if not self.train_keys or not self.val_keys:
@@ -592,7 +510,7 @@ class Fitter:
                       data=str(Path(cfg.data).resolve()), command=cfg.command)
         best = dict(val_psnr=final["val"].get("psnr"), val_tm_psnr=final["val"].get("tm_psnr"),
                     test_psnr=final["test"].get("psnr"), test_node_psnr=(final["test_node"] or {}).get("psnr"))
-        ident = dict(path=str(self.views.root.resolve()), manifest_sha256=data.manifest_sha256(self.views.root),
+        ident = dict(path=str(self.views.root.resolve()), manifest_sha256=folder.manifest_sha256(self.views.root),
                      n_samples=len(self.views.raw), settings=self.views.manifest.get("settings", {}),
                      split=dict(by="view", train=self.train_keys, val=self.val_keys, test=self.test_keys))
         ck = checkpoint.make(net, "network", history=[], best=best, dataset=ident, command=cfg.command,
@@ -600,8 +518,8 @@ class Fitter:
         ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}
         checkpoint.save(self.out, ck)
         jpath, mpath = report_paths(self.out)
-        _atomic_write(jpath, json.dumps(report, indent=1))
-        _atomic_write(mpath, report_markdown(report, self.out))
+        files.write_json(jpath, report, indent=1)
+        files.write_text(mpath, report_markdown(report, self.out))
         self.log(f"wrote {self.out} (inputs {ch.format_spec(spec)}), {jpath.name}, {mpath.name}")
         self.log(verdict)
         self._report("done", verdict)
@@ -649,16 +567,6 @@ def _plain(x):
 def report_paths(model) -> tuple[Path, Path]:
     m = Path(model)
     return m.with_name(m.stem + ".fit_report.json"), m.with_name(m.stem + ".fit_report.md")
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def _n(v, fmt="{:.2f}"):

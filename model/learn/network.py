@@ -46,11 +46,14 @@ def _act():
     return nn.LeakyReLU(0.1)
 
 
+# the input groups each head reads itself (fit never drops them)
+HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
+
 class Head(nn.Module):
     def __init__(self, kind: str, spec: tuple[str, ...]):
         super().__init__()
         lay = layout(spec)
-        need = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
+        need = HEAD_NEEDS
         if kind not in need:
             raise UserError(f"unknown head {kind!r}; known: {', '.join(need)}")
         missing = [g for g in need[kind] if g not in lay]

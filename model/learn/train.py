@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import copy
 import math
-import re
 import sys
 import time
 from dataclasses import asdict, dataclass, field
@@ -44,8 +43,8 @@ import numpy as np
 import torch
 
 from .. import channels as ch
-from . import checkpoint, data, network
-from .. import metrics, normalize
+from . import checkpoint, curves, data, network
+from .. import files, metrics, normalize
 from ..errors import UserError
 
 SNAPSHOT_EVERY = 50
@@ -116,65 +115,36 @@ def evaluate(net, samples, with_ssim: bool = True) -> dict:
             sq += float((((out - normalize.light_forward(s.y[None])) ** 2) * m).sum())
             n += 3 * int(m.sum())
             pred = network.to_linear(out)[0].permute(1, 2, 0).numpy()
-            ref = s.y.permute(1, 2, 0).numpy()
-            mk = m.numpy()
-            p.add(pred[mk], ref[mk])
-            tp.add(pred[mk], ref[mk])
+            r = metrics.score(pred, s.y.permute(1, 2, 0).numpy(), m.numpy(), with_ssim=with_ssim, with_flip=False)
+            p.add_score(r)
+            tp.add_score(r)
             if with_ssim:
-                ss.append(metrics.ssim(np.where(mk[..., None], pred, ref), ref))
+                ss.append(r["ssim"])
     net.train()
     return dict(val_psnr=p.value, val_tm_psnr=tp.value, val_ssim=float(np.mean(ss)) if ss else math.nan,
                 val_loss=sq / max(n, 1))
 
 
-def curve_png(history, path, title="") -> None:
-    """Validation PSNR (seed's convention) against training minutes."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    xs = [h["minutes"] for h in history]
-    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
-    ax.plot(xs, [h["val_psnr"] for h in history], "o-", ms=3, label="val PSNR (linear, clamped)")
-    ax.plot(xs, [h["val_tm_psnr"] for h in history], "s--", ms=3, alpha=0.6, label="val PSNR (tonemapped)")
-    _finish_plot(fig, ax, path, title, "PSNR (dB)")
-
-
-def _finish_plot(fig, ax, path, title, ylabel, fontsize=None, xlabel="training minutes") -> None:
-    """Label, then save atomically (temp name + rename)."""
-    import matplotlib.pyplot as plt
-
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=fontsize)
-    fig.tight_layout()
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
-
-
 class Trainer:
-    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder | None = None, log=None):
+    def __init__(self, cfg: TrainConfig, dataset: data.DatasetFolder | None = None, log=None, split=None,
+                 init_state: dict | None = None):
+        """``split``: (train keys, validation keys) instead of the split by scene (the fit's views of one scene);
+        ``init_state``: starting weights (fine-tuning)."""
         cfg.check()
         self.cfg = cfg
         self.dataset = dataset
+        self.split = split
+        self.init_state = init_state
         self.log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
         self.out = Path(cfg.out)
         self.last = checkpoint.last_path(self.out)
 
     # ---- state -------------------------------------------------------------------------------------
     def _remove_stale_temps(self):
-        """Delete the temporary files a killed run left beside this run's outputs (checkpoint.save's
-        ``.NAME.PID.tmp``, curve_png's ``.NAME.tmp.png``): this run owns those names (issue 7, case 9)."""
-        names = "|".join(re.escape(p.name) for p in (self.out, self.last, checkpoint.curve_path(self.out)))
-        if self.out.parent.is_dir():
-            for f in self.out.parent.iterdir():
-                if re.fullmatch(rf"\.({names})\.(\d+\.tmp|tmp\.png)", f.name):
-                    f.unlink(missing_ok=True)
+        """Delete the temporary files a killed run left beside this run's outputs: this run owns those names
+        (issue 7, case 9)."""
+        names = {p.name for p in (self.out, self.last, checkpoint.curve_path(self.out))}
+        files.sweep(self.out.parent, owned=names.__contains__)
 
     def _setup(self):
         cfg = self.cfg
@@ -217,9 +187,17 @@ class Trainer:
         if resume is not None and resume["dataset"].get("manifest_sha256") != ident["manifest_sha256"]:
             raise UserError(f"{self.last}: was trained on another dataset (manifest differs from {cfg.data}/manifest.json); "
                             "train without --resume or point --data at the original dataset")
-        train_sc, val_sc = data.split_scenes(ds.scenes, cfg.val_fraction, cfg.seed)
-        self.train_set, self.val_set = ds.subset(train_sc), ds.subset(val_sc)
-        self.identity = dict(ident, split=dict(train=train_sc, val=val_sc, val_fraction=cfg.val_fraction, seed=cfg.seed))
+        if self.split is None:
+            train_sc, val_sc = data.split_scenes(ds.scenes, cfg.val_fraction, cfg.seed)
+            self.train_set, self.val_set = ds.subset(train_sc), ds.subset(val_sc)
+            split = dict(train=train_sc, val=val_sc, val_fraction=cfg.val_fraction, seed=cfg.seed)
+        else:
+            tr, va = ({str(k) for k in keys} for keys in self.split)
+            self.train_set = [s for s in ds.samples if s.key in tr]
+            self.val_set = [s for s in ds.samples if s.key in va]
+            train_sc, val_sc = sorted({s.scene for s in self.train_set}), sorted({s.scene for s in self.val_set})
+            split = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set], by="view")
+        self.identity = dict(ident, split=split)
         torch.manual_seed(cfg.seed)
         self.net = network.build(network.arch_for(cfg.variant, spec, **cfg.arch))
         self.net.train()
@@ -257,6 +235,8 @@ class Trainer:
             self.quarantine = list(ts["quarantine"])
             self.history = list(resume["history"])
             self.best = dict(ts["best"])
+        if self.init_state is not None:
+            self.net.load_state_dict(self.init_state)
         self.log(f"{cfg.variant}: {network.count_params(self.net):,} parameters, receptive field "
                  f"{self.net.receptive_field}px; {len(self.train_set)} train / {len(self.val_set)} val samples "
                  f"({len(train_sc)} / {len(val_sc)} scenes); {self.cpi} crops of {self.crop[0]}x{self.crop[1]} per image")
@@ -456,7 +436,7 @@ class Trainer:
                      + ("  *best" if improved else ""))
             cb(self._state("epoch", self._progress(self.epoch), entry["loss"]))
         if self.history:
-            curve_png(self.history, checkpoint.curve_path(self.out), f"{cfg.variant} on {Path(cfg.data).name}")
+            curves.curve_png(self.history, checkpoint.curve_path(self.out), f"{cfg.variant} on {Path(cfg.data).name}")
         summary = dict(status=status, model=str(self.out), last=str(self.last), epochs=self.epoch, step=self.step,
                        minutes=self.elapsed / 60, best=self.best, skipped_steps=self.skipped, lr_drops=self.lr_drops,
                        params=network.count_params(self.net), variant=cfg.variant, left_out=list(self.quarantine),
@@ -477,31 +457,3 @@ class Trainer:
         checkpoint.save(self.last, checkpoint.make(self.net, "network", train_state=self._train_state(), **kw))
         if improved:
             checkpoint.save(self.out, checkpoint.make(self.net, "network", **kw))
-
-
-def compare_png(models, path, title="validation PSNR against training time", cpu: bool = False) -> list[dict]:
-    """One plot of several checkpoints' learning curves (from MODEL.last.pt's history when present); a
-    closed-form baseline (one history entry) is drawn as a horizontal line. Returns the rows plotted."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
-    rows = []
-    for m in models:
-        m = Path(m)
-        src = checkpoint.last_path(m) if checkpoint.last_path(m).is_file() else m
-        ck = checkpoint.load(src)
-        h = ck["history"]
-        label = f"{ck['arch']['variant']} ({m.stem}, {ck.get('params', 0) / 1000:.0f}k)"
-        if ck.get("kind") == "linear":
-            ax.axhline(h[-1]["val_psnr"], ls=":", color="k", label=f"linear baseline {h[-1]['val_psnr']:.2f} dB")
-        else:
-            ax.plot([e["cpu_minutes" if cpu else "minutes"] for e in h], [e["val_psnr"] for e in h], "-", label=label)
-        best = max(h, key=lambda e: e["val_psnr"])
-        rows.append(dict(model=str(m), variant=ck["arch"]["variant"], params=ck.get("params"), best_val_psnr=best["val_psnr"],
-                         best_val_tm_psnr=best.get("val_tm_psnr"), best_val_ssim=best.get("val_ssim"),
-                         minutes=h[-1]["minutes"], epochs=h[-1]["epoch"]))
-    _finish_plot(fig, ax, path, title, "val PSNR, linear clamped (dB)", fontsize=8,
-                 xlabel="training CPU minutes (all threads)" if cpu else "training minutes")
-    return rows

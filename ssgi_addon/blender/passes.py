@@ -24,20 +24,11 @@ import time
 import bpy
 import numpy as np
 
-from ...model import channels as ch
+from ...model import channels as ch, files
 from ...model.errors import UserError
 
-# group -> (Blender render pass name, channel suffixes in the EXR part)
-PASS_NAMES: dict[str, str] = {
-    "albedo": "Diffuse Color",
-    "normal": "Normal",
-    "depth": "Depth",
-    "direct": "Diffuse Direct",
-    "ao": "Ambient Occlusion",
-    "world": "Diffuse Direct",  # of a second render: lights hidden, the world lighting
-    "eevee": "Combined",
-    "ref": "Combined",
-}
+# group -> Blender render pass name (the channel spec's Group.render_pass)
+PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
 EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee")
 AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
 # Lights' custom cutoff distance (m), needed with light threshold 0 (without a custom distance EEVEE then culls
@@ -229,31 +220,11 @@ _swept = False
 
 
 def remove_stale_temp_files(folder=None, min_age_s: float = STALE_TEMP_S) -> list[str]:
-    """Remove ``ssgi-render-PID-*.exr`` / ``ssgi-passes-PID-*.exr`` files that a killed process left in the
-    temporary folder: only when process PID is gone and the file is older than ``min_age_s`` (a process in
-    another pid namespace sharing the folder cannot lose a file in use). Returns the removed names."""
-    import re
-    folder = folder or tempfile.gettempdir()
-    removed = []
-    pat = re.compile(r"^ssgi-(?:render|passes)-(\d+)-[^/]*\.exr$")
-    now = time.time()
-    for name in os.listdir(folder):
-        m = pat.match(name)
-        if not m or int(m.group(1)) == os.getpid():
-            continue
-        try:
-            os.kill(int(m.group(1)), 0)
-            continue  # the process lives
-        except ProcessLookupError:
-            pass
-        except (PermissionError, OverflowError):
-            continue
-        path = os.path.join(folder, name)
-        with contextlib.suppress(OSError):
-            if now - os.stat(path).st_mtime >= min_age_s and os.path.isfile(path):
-                os.unlink(path)
-                removed.append(name)
-    return removed
+    """Remove the ``ssgi-render-*.exr`` / ``ssgi-passes-*.exr`` scratch files (``files.scratch``) that a killed
+    process left in the temporary folder: only when its process is gone and the file is older than
+    ``min_age_s`` (``files.sweep``). Returns the removed names."""
+    return files.sweep(folder or tempfile.gettempdir(), owned=lambda n: n.startswith(("ssgi-render-", "ssgi-passes-")),
+                       min_age_s=min_age_s)
 
 
 def _render(scene) -> dict[str, dict[str, np.ndarray]]:
@@ -272,8 +243,7 @@ def _render(scene) -> dict[str, dict[str, np.ndarray]]:
                 raise RuntimeError("render produced no Render Result")
             # the temporary file exists only for the save and the read, not during the (long) render, so a
             # process killed while rendering leaves nothing behind (docs/hard_cases.md)
-            fd, path = tempfile.mkstemp(prefix=f"ssgi-render-{os.getpid()}-", suffix=".exr")
-            os.close(fd)
+            path = str(files.scratch("ssgi-render", ".exr"))
             try:
                 img.save_render(path, scene=scene)
                 # A failed write (a full disk) does not raise: Blender logs "IMB_exr_write_channels: Failed to

@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from ...model import cliargs
+from ...model import cliargs, files
 from ...model.errors import UserError
 
 
@@ -38,9 +38,9 @@ def work_dir(out) -> Path:
 def derive_plan(data_dir, seed: int = 0) -> dict:
     """Roles for a views folder without a plan: jittered cameras (ssgi.fit.view_*) held out as make_views
     does; when there are none, every camera counts as a view point and the roles are drawn among all."""
-    from ...model.learn import data
+    from ...model.dataset import folder
     from ..pipeline import fit as sfit
-    m = data.read_manifest(data_dir)
+    m = folder.open_folder(data_dir, scenes=True)
     cams = sorted({sfit.sample_camera(s) for s in m["samples"].values()} - {None})
     jit = [c for c in cams if c.startswith(sfit.VIEW_PREFIX)] or cams
     if len(jit) < 3:
@@ -97,7 +97,7 @@ def _run(args) -> dict:
         tag = _views_tag(blend, plan)
         wblend = work / f"views-{tag}.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(wblend), copy=True)
-        _write_json(work / "views_plan.json", plan)
+        files.write_json(work / "views_plan.json", plan, default=str)
         data_dir = work / f"views-{tag}"
         progress(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
         sfit.bake_views(wblend, data_dir, plan, size, ref_samples=args.ref_samples)
@@ -130,7 +130,7 @@ def _run(args) -> dict:
         rp = Path(res["report"])
         rep = json.loads(rp.read_text())
         rep.update(bake_minutes=res["bake_minutes"], total_minutes=res["total_minutes"])
-        _write_json(rp, rep)
+        files.write_json(rp, rep, default=str)
     return res
 
 
@@ -158,13 +158,6 @@ def _ladder(text: str) -> list:
         return v
     except (ValueError, AssertionError):
         raise UserError(f"--ladder must be a JSON list of [name, variant, {{overrides}}], got {text!r}") from None
-
-
-def _write_json(path: Path, obj) -> None:
-    import os
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(obj, indent=1, default=str))
-    os.replace(tmp, path)
 
 
 def register_cli(sub) -> None:

@@ -129,7 +129,7 @@ def _bake_scenes(args, out: Path):
 def _run(args) -> dict:
     import bpy
 
-    from ...model.learn import checkpoint
+    from ...model.infer import predictor
     from ...model.evaluate import report as rep
     from ..pipeline import report as rr
 
@@ -140,13 +140,13 @@ def _run(args) -> dict:
     machine = rep.machine()
     notes: list[str] = []
     models = [Path(p) for p in args.models]
-    preds = [(p, checkpoint.load_predictor(p, num_threads=args.threads)) for p in models]
+    preds = [(p, predictor.load_predictor(p, num_threads=args.threads)) for p in models]
     if args.data and not args.no_fit_baseline and not any(pr.kind == "linear" for _, pr in preds):
         from ...model.learn import baseline
         bl = out / "linear_baseline.pt"
         rr.log(f"no linear model given: fitting the linear-regression baseline on {args.data} -> {bl}")
         baseline.run_baseline(args.data, bl, log=rr.log)
-        preds.append((bl, checkpoint.load_predictor(bl, num_threads=args.threads)))
+        preds.append((bl, predictor.load_predictor(bl, num_threads=args.threads)))
         notes.append(f"the linear baseline was fitted by this run (model/baseline.py, closed form) on the training "
                      f"split of {args.data}: {bl}")
     n_net = sum(1 for _, pr in preds if pr.kind != "linear")

@@ -71,7 +71,7 @@ def run_bench(args) -> dict:
 
 
 def run_curves(args) -> dict:
-    from ...model.learn.train import compare_png
+    from ...model.learn.curves import compare_png
     rows = compare_png(args.models, args.out, cpu=args.cpu)
     for r in rows:
         print(f"{r['variant']:>10} {r['params'] or 0:>8} params  best val PSNR {r['best_val_psnr']:.2f} dB  "

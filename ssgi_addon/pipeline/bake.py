@@ -18,8 +18,8 @@ import numpy as np
 
 from ...model import channels as ch
 from ...model.dataset import folder as ds
-from ...model.dataset import exrio
-from ...model import metrics
+from ...model.dataset import exrio, preview
+from ...model import files, metrics
 from ...model.errors import UserError
 from ..blender import passes, room
 
@@ -97,21 +97,12 @@ def render_reference(scene, max_samples: int, target_db: float | None, seed: int
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
               ref_target_db=None):
-    s = {"kind": kind, "size": [int(size[0]), int(size[1])], "ref_samples": int(ref_samples),
-         "ref_target_db": ref_target_db, "denoise": bool(denoise), "eevee_samples": int(eevee_samples),
-         "diffuse_bounces": passes.DIFFUSE_BOUNCES, "half": True,
-         "cycles": {"adaptive_sampling": False, "clamp_direct": 0.0, "clamp_indirect": 0.0,
-                    "denoiser": "OPENIMAGEDENOISE" if denoise else None,
-                    "denoising_input_passes": "RGB_ALBEDO_NORMAL" if denoise else None},
-         "eevee": {"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
-                   "world_group": passes.WORLD_GROUP_MODE,
-                   "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0, "area_size_m": passes.AREA_LIGHT_SIZE}}}
-    if first_seed is not None:
-        s["first_seed"] = int(first_seed)
-    if scenes is not None:
-        s["scenes"] = [str(x) for x in scenes]
-        s["frames"] = frames
-    return s
+    return ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
+                       ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames,
+                       eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
+                              "world_group": passes.WORLD_GROUP_MODE,
+                              "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0,
+                                              "area_size_m": passes.AREA_LIGHT_SIZE}})
 
 
 def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0,
@@ -223,7 +214,7 @@ def iter_bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_sample
         m = ds.SAMPLE_RE.match(final_name)
         return final_name == mname if m is None else (shard is None or int(m.group(1)) % shard[1] == shard[0])
 
-    removed = ds.remove_temp_files(out, owned)
+    removed = len(files.sweep(out, owned))
     todo = [(i, info) for i, info in jobs if not _complete(out, ds.sample_name(i), manifest)]
     skipped = len(jobs) - len(todo)
     if not todo:  # nothing to bake: still leave a manifest (e.g. --count 0)
@@ -454,7 +445,7 @@ def run_verify(args) -> dict:
         print(f"verify: {p}", file=sys.stderr)
     n = 0
     try:
-        n = len(ds.load_manifest(args.folder)["samples"])
+        n = len(ds.open_folder(args.folder)["samples"])
     except UserError:
         pass
     if problems:
@@ -470,7 +461,7 @@ def run_merge(args) -> dict:
 
 
 def run_preview(args) -> dict:
-    res = ds.preview(args.folder, args.out, max_samples=args.max)
+    res = preview.preview(args.folder, args.out, max_samples=args.max)
     print(f"preview: {res['sheet']} ({res['samples']} samples)", file=sys.stderr)
     return res
 

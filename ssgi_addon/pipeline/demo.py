@@ -153,7 +153,7 @@ def run(args) -> dict:
         missing.append("the Cycles reference (skipped: --ref-samples 0)")
 
     from ...model import metrics
-    from ...model.infer.predict import srgb8, write_png
+    from ...model.images import srgb8, write_png
     if "ref" in imgs:
         for k in ("eevee", "ssgi"):
             if k in imgs:

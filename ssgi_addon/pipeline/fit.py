@@ -239,8 +239,9 @@ def sample_camera(meta: dict) -> str | None:
 
 def split_views(data_dir, plan: dict) -> tuple[list[str], list[str], list[str]]:
     """(train, val, test) sample keys of the baked views, by each sample's camera role in the plan."""
-    from ...model.learn import data, fit as mfit
-    m = data.read_manifest(data_dir)
+    from ...model.dataset import folder
+    from ...model.learn import fit as mfit
+    m = folder.open_folder(data_dir, scenes=True)
     by_cam: dict[str, list[str]] = {}
     unknown = []
     for key, meta in m["samples"].items():

@@ -28,15 +28,13 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-from ...model import channels as ch
-from ...model import cliargs
+from ...model import channels as ch, cliargs, files
 from ...model.errors import UserError
 from ..blender import node as ssgi_node
 
@@ -68,7 +66,7 @@ def load_model(path: Path):
         hint = " (the shipped default model)" if path == ssgi_node.DEFAULT_MODEL else ""
         raise UserError(f"{path}: {fault}{hint}; set the SSGI node's model or pass --model")
     try:
-        from ...model.learn import checkpoint
+        from ...model.infer import predictor as infer
     except ImportError as e:  # torch missing in this Blender
         from ..runtime import deps
         raise UserError(deps.missing_message("The SSGI node") + f" ({e})") from None
@@ -82,7 +80,7 @@ def load_model(path: Path):
                 threads = preferences.torch_threads()
         except Exception:
             threads = None
-        pred = checkpoint.load_predictor(path, num_threads=threads)
+        pred = infer.load_predictor(path, num_threads=threads)
         _PREDICTORS.clear()
         _PREDICTORS[key] = pred
     return pred
@@ -273,17 +271,14 @@ def output_path(scene, frame: int, out: str | None = None, single: bool = False)
 
 def atomic_save_render(scene, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    for stale in path.parent.glob(f".{path.stem}.*.tmp{path.suffix}"):  # a killed render's (issue 7, case 9)
-        stale.unlink(missing_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    try:
+    files.sweep(path.parent, owned=lambda n: n == path.name)  # a killed render's (issue 7, case 9)
+
+    def save(tmp):
         bpy.data.images["Render Result"].save_render(str(tmp), scene=scene)
         if not tmp.is_file():
             raise UserError(f"{path}: Blender wrote no file (output format {scene.render.image_settings.file_format})")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+
+    files.atomic_write(path, save)
 
 
 # --- the session --------------------------------------------------------------------------------------
@@ -347,8 +342,7 @@ class RenderSession:
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()
                 # made after the pass render (not during it), named by process: see docs/hard_cases.md
-                fd, exr = tempfile.mkstemp(prefix=f"ssgi-passes-{os.getpid()}-", suffix=".exr")
-                os.close(fd)
+                exr = str(files.scratch("ssgi-passes", ".exr"))
                 save_multilayer(scene, exr)
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()

@@ -14,7 +14,7 @@ Per scene, in this order, each timed with ``time.perf_counter`` around the call 
 
 1. the EEVEE direct-only G-buffer (passes.render_gbuffer): "EEVEE direct light only" is its Combined image
    (time = this render); the learned methods predict from these passes (time = this render + prediction);
-2. every model (checkpoint.load_predictor(...).predict), the median of ``predict_repeats`` calls;
+2. every model (predictor.load_predictor(...).predict), the median of ``predict_repeats`` calls;
 3. EEVEE with its own GI (ray tracing + fast GI on, the scene's world and lights as they are), at each
    preset of ``GI_PRESETS``;
 4. Cycles at each spp of the ladder, raw and with OIDN (albedo + normal); denoise time = OIDN render - raw;
@@ -39,7 +39,7 @@ import bpy
 import numpy as np
 
 from ...model import channels as ch
-from ...model import metrics, normalize
+from ...model import images, metrics
 from ...model.evaluate import report as rep
 from ...model.errors import UserError
 from ..blender import blendfile, passes, room
@@ -174,10 +174,10 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     first model checkpoint that was trained on this very dataset (same manifest hash), else data.split_scenes'
     default split; "all": all."""
     from ...model.learn import data
-    from ...model.dataset import exrio
+    from ...model.dataset import exrio, folder as dataset
 
     root = Path(data_dir)
-    m = data.read_manifest(root)
+    m = dataset.open_folder(root, scenes=True)
     st = m.get("settings", {})
     if st.get("synthetic"):
         raise UserError(f"{root}: a synthetic dataset (model/synthetic.py) has no scenes to render")
@@ -190,7 +190,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     if split == "all":
         chosen = sorted(by_scene)
     else:
-        sha = data.manifest_sha256(root)
+        sha = dataset.manifest_sha256(root)
         here = str(root.resolve())
         vals = [set((ck.get("dataset") or {}).get("split", {}).get("val") or ()) for ck in model_ckpts
                 if (ck.get("dataset") or {}).get("manifest_sha256") == sha or (ck.get("dataset") or {}).get("path") == here]
@@ -228,7 +228,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     out = []
     for sc, key in keys:
         meta = m["samples"][key]
-        path = root / f"{key}.exr"
+        path = dataset.sample_path(root, key)
         stored = exrio.read_sample(path, (ch.TARGET_GROUP, "eevee"))
         if meta.get("blend"):
             cam = meta.get("camera") if isinstance(meta.get("camera"), str) else None
@@ -316,7 +316,7 @@ class ReportRun:
 
     def _score(self, key: str, scene: str, img, ref, mask, times: dict) -> None:
         m = self.raw["methods"][key]
-        r = rep.image_metrics(img, ref, mask)
+        r = metrics.score(img, ref, mask)
         r["time"] = {k: float(v) for k, v in times.items()}
         m["per_scene"][scene] = r
         self.images.setdefault(scene, {})[key] = np.asarray(img[..., :3], np.float32)
@@ -379,7 +379,7 @@ class ReportRun:
         g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
         t_g, t_w = es.t_raster, es.t_world
         self._step(f"{name}: G-buffer {t_g:.2f} s, world pass {t_w:.2f} s")
-        mask = normalize.geometry_mask(g["depth"], g["normal"])
+        mask = images.geometry_mask(g["depth"], g["normal"])
         ref = es.ref
         if ref.shape[:2] != g["depth"].shape[:2]:
             raise UserError(f"scene {name}: the stored reference is {ref.shape[1]}x{ref.shape[0]}, the render "

@@ -14,6 +14,7 @@ import pytest
 
 from ssgi.model import channels as ch
 from ssgi.model.dataset import folder as ds
+from ssgi.model import images
 from ssgi.model.dataset import exrio
 
 from ..conftest import run_cli, run_py
@@ -250,9 +251,9 @@ def test_preview_writes_a_contact_sheet(baked, tmp_path):
     im = np.asarray(Image.open(out).convert("RGB"))
     assert im.shape == (14 + 2 * 36, 8 * 64, 3)  # albedo normal depth direct ao world eevee ref
     g = exrio.read_sample(d / "000001.exr")
-    np.testing.assert_array_equal(im[14 + 36:, 7 * 64:], ds.tonemap8(g["ref"]))  # last column: the reference
-    np.testing.assert_array_equal(im[14 + 36:, 5 * 64:6 * 64], ds.tonemap8(g["world"]))
-    np.testing.assert_array_equal(im[14 + 36:, 3 * 64:4 * 64], ds.tonemap8(g["direct"]))
+    np.testing.assert_array_equal(im[14 + 36:, 7 * 64:], images.srgb8(g["ref"]))  # last column: the reference
+    np.testing.assert_array_equal(im[14 + 36:, 5 * 64:6 * 64], images.srgb8(g["world"]))
+    np.testing.assert_array_equal(im[14 + 36:, 3 * 64:4 * 64], images.srgb8(g["direct"]))
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
 
 
@@ -446,13 +447,13 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     assert bpy.ops.ssgi.bake_cancel() == {{"FINISHED"}}
     assert sess.step() is False
     out["after_cancel"] = [sess.summary["status"], sess.summary["baked"], len(bpy.data.scenes), scenes_during,
-                           ds.verify({str(d)!r}), sorted(ds.load_manifest({str(d)!r})["samples"])]
+                           ds.verify({str(d)!r}), sorted(ds.open_folder({str(d)!r})["samples"])]
     out["panel_cancelled"] = ui_recorder.draw(bake_panel.SSGI_PT_bake).labels()
     # Bake Dataset again (execute, as a script runs it): resumes and finishes
     with bpy.context.temp_override(scene=user):  # no window: say which scene's settings to use
         assert bpy.ops.ssgi.bake_dataset() == {{"FINISHED"}}
-    out["ui_target"] = ds.load_manifest({str(d)!r})["settings"]["ref_target_db"]
-    out["after_resume"] = [bake.STATE["status"], ds.verify({str(d)!r}), sorted(ds.load_manifest({str(d)!r})["samples"]),
+    out["ui_target"] = ds.open_folder({str(d)!r})["settings"]["ref_target_db"]
+    out["after_resume"] = [bake.STATE["status"], ds.verify({str(d)!r}), sorted(ds.open_folder({str(d)!r})["samples"]),
                            len(bpy.data.scenes), sorted(o.name for o in user.objects) == user_objects,
                            [w.name for w in bpy.data.worlds if w.get("ssgi_room") and w.users == 0]]
     # a relative folder in an unsaved file, or another bake's folder: reported, nothing baked or changed
@@ -465,7 +466,7 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
             except RuntimeError as e:  # an operator's ERROR report raises when called from Python
                 bad.append(str(e))
     import os
-    out["bad_folder"] = bad + [os.path.exists("ssgi_relative_unsaved"), sorted(ds.load_manifest({str(d)!r})["samples"])]
+    out["bad_folder"] = bad + [os.path.exists("ssgi_relative_unsaved"), sorted(ds.open_folder({str(d)!r})["samples"])]
     out["scenes_at_end"] = len(bpy.data.scenes)
     ssgi.unregister()
     print("JSON" + json.dumps(out))

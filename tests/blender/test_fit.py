@@ -23,7 +23,7 @@ def scene_fit(tmp_path_factory, generic):
     with the fitted model."""
     import hashlib
 
-    from ..blender.test_node import SCENE
+    from .test_node import SCENE
     d = tmp_path_factory.mktemp("scene_fit")
     blend = d / "room.blend"
     run_py(SCENE + f'''
@@ -43,7 +43,7 @@ bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 
 
 def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_fit):
-    from ssgi.model.learn import data
+    from ssgi.model.dataset import folder as data_folder
     s = scene_fit["summary"]
     assert s["ok"] and s["status"] == "done"
     work = scene_fit["dir"] / "room_fit.fit"
@@ -54,7 +54,7 @@ def test_cli_fit_bakes_views_of_the_scene_and_holds_out_jittered_cameras(scene_f
     jit = {c: r for c, r in cams.items() if c != "Camera"}
     assert len(jit) == 3 and sorted(jit.values()) == ["test", "train", "val"]
     (views,) = [p for p in work.glob("views-*") if p.is_dir()]
-    m = data.read_manifest(views)
+    m = data_folder.open_folder(views, scenes=True)
     assert s["views"] == str(views)
     got = sorted((v["camera"], v["frame"]) for v in m["samples"].values())
     assert got == sorted((c, f) for c in cams for f in (1, 3))  # every camera at every frame: 8 views
@@ -158,7 +158,7 @@ json.dump(res, open({str(out)!r}, "w"))
 def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(scene_fit):
     from ssgi.model.dataset import exrio
 
-    from ..blender.test_node import expected_image, read_rgba
+    from .test_node import expected_image, read_rgba
     ck = checkpoint.load(scene_fit["model"])
     assert tuple(ck["inputs"]) == ("albedo", "direct") and scene_fit["summary"]["inputs"] == ["albedo", "direct"]
     assert scene_fit["render"]["inputs"] == "albedo,direct"

@@ -103,8 +103,8 @@ def make_checkpoint(path: Path, variant: str = "unet_s", inputs=None) -> Path:
 
 def expected_image(model: Path, groups: dict, clip_end: float) -> np.ndarray:
     """What the node must show, computed here: predict() on the passes, EEVEE's colour where no geometry."""
-    from ssgi.model.learn import checkpoint
-    pred = checkpoint.load_predictor(model).predict(groups)
+    from ssgi.model.infer import predictor
+    pred = predictor.load_predictor(model).predict(groups)
     world = groups["depth"][..., 0] >= 0.999 * clip_end
     return np.where(world[..., None], groups["eevee"][..., :3], pred), world
 

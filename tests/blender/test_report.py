@@ -112,10 +112,10 @@ def test_report_md_has_the_table_verdicts_and_settings(e2e):
 
 def test_dataset_split_follows_the_models_checkpoint(e2e):
     """The default evaluation scenes are the validation scenes a model records for this very dataset."""
-    from ssgi.model.learn import data
+    from ssgi.model.dataset import folder
     from ssgi.ssgi_addon.pipeline import report as rr
     d = e2e["out"] / "data"
-    sha = data.manifest_sha256(d)
+    sha = folder.manifest_sha256(d)
     ck = {"dataset": {"manifest_sha256": sha, "split": {"val": ["room4"]}}}
     scenes, over, notes = rr.dataset_scenes(d, [ck])
     assert [s.name for s in scenes] == ["room4"] and over["size"] == (64, 36) and over["ref_samples"] == 16

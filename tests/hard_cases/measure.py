@@ -19,7 +19,7 @@ cli.load_package()
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from ssgi.model.learn import checkpoint
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio, synthetic
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.infer.bench import synthetic_groups  # noqa: E402
@@ -42,8 +42,8 @@ def main() -> None:
 
     print("\n# case 2: output / max(1, peak input light), lights scaled")
     for v, path in models.items():
-        for prec in checkpoint.PRECISIONS:
-            pred = checkpoint.load_predictor(path, precision=prec)
+        for prec in predictor.PRECISIONS:
+            pred = predictor.load_predictor(path, precision=prec)
             row = []
             for light in (1.0, 1e2, 1e4, 1e5 / 3, 3e38):
                 g = synthetic_groups(40, 24, 3)
@@ -57,9 +57,9 @@ def main() -> None:
     for v, path in models.items():
         g = synthetic_groups(64, 40, 9)
         g["direct"] = (10.0 ** np.random.default_rng(9).uniform(-3, 3, g["direct"].shape)).astype(np.float32)
-        ref = checkpoint.load_predictor(path, precision="fp32").predict(g)
+        ref = predictor.load_predictor(path, precision="fp32").predict(g)
         for prec in ("fp32-cl", "bf16-cl"):
-            out = checkpoint.load_predictor(path, precision=prec).predict(g)
+            out = predictor.load_predictor(path, precision=prec).predict(g)
             print(f"{v:7s} {prec:8s} tm {metrics.tm_psnr(out, ref):7.2f} dB  seed {metrics.psnr(out, ref):7.2f} dB  "
                   f"max rel diff {np.max(np.abs(out - ref) / (ref + 1e-3)):.2g}")
     g = synthetic_groups(48, 32, 11)
@@ -68,13 +68,13 @@ def main() -> None:
     outs = []
     for half in (True, False):
         exrio.write_sample(d / "s.exr", g, half=half)
-        outs.append(checkpoint.load_predictor(models["unet_s"]).predict(exrio.read_sample(d / "s.exr")))
+        outs.append(predictor.load_predictor(models["unet_s"]).predict(exrio.read_sample(d / "s.exr")))
     print(f"half vs float EXR inputs (unet_s, direct x50): tm {metrics.tm_psnr(outs[0], outs[1]):.2f} dB")
 
     print("\n# case 5: tiled vs untiled, max |difference|")
     for v, path in models.items():
-        pred = checkpoint.load_predictor(path)
-        for h, w, tile in ((1081, 1921, checkpoint.DEFAULT_TILE), (301, 9, 4), (3, 2500, 4), (29, 53, 8)):
+        pred = predictor.load_predictor(path)
+        for h, w, tile in ((1081, 1921, predictor.DEFAULT_TILE), (301, 9, 4), (3, 2500, 4), (29, 53, 8)):
             if v == "fssgi" and h * w > 1e6:
                 continue
             g = synthetic_groups(w, h, h + w)

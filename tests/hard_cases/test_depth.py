@@ -15,6 +15,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network
+from ssgi.model.infer import predictor
 from ssgi.model import normalize
 
 from ..conftest import run_py
@@ -153,7 +154,7 @@ def test_render_path_without_normal_input_keeps_sky_as_background(renders):
     assert (s["depth"][sky, 0] == 1e5).all()
     dn = _depth_input(s, NO_NORMAL)
     assert (dn[sky] == 1.0).all() and ((dn[~sky] > 0) & (dn[~sky] < 1)).all()
-    pred = checkpoint.load_predictor(renders["model"]).predict(s)
+    pred = predictor.load_predictor(renders["model"]).predict(s)
     from ssgi.ssgi_addon.pipeline import render as R
     np.testing.assert_allclose(s["prediction"], R.compose(pred, s, 1e5), rtol=1e-5, atol=1e-6)
 

@@ -14,6 +14,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio, synthetic
 
 from ..conftest import run_cli
@@ -178,7 +179,7 @@ def test_foreign_and_broken_models_to_predict(dataset, trained, tmp_path):
     models = _foreign_models(trained["unet_s"], tmp_path)
     for name, (model, fault) in models.items():
         with pytest.raises(UserError) as e:
-            checkpoint.load_predictor(model)
+            predictor.load_predictor(model)
         assert str(e.value).startswith(f"{model}: ") and fault in str(e.value), (name, str(e.value))
     out = tmp_path / "out" / "pred.exr"
     before = _existing(out)

@@ -113,7 +113,7 @@ def test_killed_render_reruns_to_complete_valid_frames(room, tmp_path):
     out = tmp_path / "frames"
     args = ["render", "--blend", str(room["blend"]), "--out", str(out / "f_####"), "--frames", "1-3", "--samples", "1"]
     kill_at_random(args, lambda: (out / "f_0001.exr").is_file(), seed=3, span=3.0)
-    (out / ".f_0002.999999.tmp.exr").write_bytes(b"half a frame")
+    (out / ".f_0002.exr.999999.tmp").write_bytes(b"half a frame")
     p = run_cli(*args, "--json", timeout=850)
     assert json.loads(p.stdout)["files"] == [str(out / f"f_{f:04d}.exr") for f in (1, 2, 3)]
     for f in (1, 2, 3):
@@ -124,9 +124,10 @@ def test_killed_render_reruns_to_complete_valid_frames(room, tmp_path):
 
 
 def test_temporary_render_files_of_killed_processes_are_swept(tmp_path):
-    """A killed render can leave its ``ssgi-render-PID-*.exr`` in the temporary folder (only in the short
-    save-and-read window now). The next render process removes such files once their process is gone and they
-    are 10 minutes old; files of live processes, fresh files and other files stay."""
+    """A killed render can leave its ``ssgi-render-*.exr`` scratch file (``files.scratch``:
+    ``.ssgi-render-RANDOM.exr.PID.tmp``) in the temporary folder (only in the short save-and-read window now).
+    The next render process removes such files once their process is gone and they are 10 minutes old; files
+    of live processes, fresh files and other files stay."""
     import os
     import subprocess
     import sys
@@ -136,13 +137,14 @@ def test_temporary_render_files_of_killed_processes_are_swept(tmp_path):
     child = subprocess.Popen([sys.executable, "-c", "pass"])
     child.wait()
     dead, old = child.pid, time.time() - 2 * passes.STALE_TEMP_S
-    names = {f"ssgi-render-{dead}-a.exr": old, f"ssgi-passes-{dead}-b.exr": old, f"ssgi-render-{dead}-c.exr": None,
-             f"ssgi-render-{os.getpid()}-d.exr": old, f"ssgi-render-{os.getppid()}-e.exr": old, "ssgi-render-x.exr": old,
-             "other.exr": old}
+    names = {f".ssgi-render-a.exr.{dead}.tmp": old, f".ssgi-passes-b.exr.{dead}.tmp": old,
+             f".ssgi-render-c.exr.{dead}.tmp": None, f".ssgi-render-d.exr.{os.getpid()}.tmp": old,
+             f".ssgi-render-e.exr.{os.getppid()}.tmp": old, ".ssgi-render-x.exr.tmp": old, "ssgi-render-x.exr": old,
+             f".other.exr.{dead}.tmp": old, "other.exr": old}
     for n, t in names.items():
         (tmp_path / n).write_bytes(b"")
         if t:
             os.utime(tmp_path / n, (t, t))
     removed = passes.remove_stale_temp_files(tmp_path)
-    assert sorted(removed) == sorted([f"ssgi-render-{dead}-a.exr", f"ssgi-passes-{dead}-b.exr"])
+    assert sorted(removed) == sorted([f".ssgi-render-a.exr.{dead}.tmp", f".ssgi-passes-b.exr.{dead}.tmp"])
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(set(names) - set(removed))

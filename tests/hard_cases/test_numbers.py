@@ -11,6 +11,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network, variants
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio
 from ssgi.model import metrics, normalize
 
@@ -23,15 +24,15 @@ ALL_INPUTS = ("albedo", "normal", "depth", "direct", "ao", "lit")  # every input
 def _untrained(variant: str, spec=ch.DEFAULT_INPUTS, seed: int = 0, precision: str = "fp32-cl", **arch):
     torch.manual_seed(seed)
     net = network.build(network.arch_for(variant, spec, **arch)).eval()
-    return checkpoint.Predictor(net, checkpoint.make(net, "network", command="hard-cases"), precision=precision)
+    return predictor.Predictor(net, checkpoint.make(net, "network", command="hard-cases"), precision=precision)
 
 
-def _bound(pred: checkpoint.Predictor, g: dict) -> float:
+def _bound(pred: predictor.Predictor, g: dict) -> float:
     """The documented output bound: OUTPUT_BOUND x max(1, brightest repaired input light value)."""
     lights = [n for n in pred.spec if n in ch.DERIVED or ch.GROUPS[n].kind == "light"]
     rep, _ = normalize.repair({n: g[n] for n in ch.required_groups(tuple(lights))})
     peak = max(float(np.max(normalize.derived(n, rep) if n in ch.DERIVED else rep[n])) for n in lights)
-    return checkpoint.OUTPUT_BOUND * max(1.0, peak)
+    return predictor.OUTPUT_BOUND * max(1.0, peak)
 
 
 # ------------------------------------------------------------------------------------------- case 1
@@ -55,7 +56,7 @@ def test_nan_and_inf_in_every_input_channel_follow_the_repair_rule(variant, trai
     ck["arch"] = dict(ck["arch"], inputs=list(ALL_INPUTS))  # a model that reads every input group
     torch.manual_seed(1)
     net = network.build(ck["arch"]).eval()
-    pred = checkpoint.Predictor(net, dict(ck, inputs=list(ALL_INPUTS)))
+    pred = predictor.Predictor(net, dict(ck, inputs=list(ALL_INPUTS)))
     base = groups(20, 12, seed=4)
     y, x = 5, 7
     checked = 0
@@ -78,7 +79,7 @@ def test_nan_and_inf_in_every_input_channel_follow_the_repair_rule(variant, trai
 def test_all_non_finite_image_is_finite_and_every_pixel_is_counted(trained):
     """Case 1: an image that is NaN/Inf everywhere (a broken shader on every pixel) predicts finite values,
     and the repaired count is the number of pixels, not of channels."""
-    pred = checkpoint.load_predictor(trained["unet_s"])
+    pred = predictor.load_predictor(trained["unet_s"])
     g = groups(9, 7)
     rng = np.random.default_rng(0)
     for k, v in g.items():
@@ -110,13 +111,13 @@ def test_cli_predict_reports_repaired_pixels(tmp_path, trained):
 
 # ------------------------------------------------------------------------------------------- case 2
 
-@pytest.mark.parametrize("precision", checkpoint.PRECISIONS)
+@pytest.mark.parametrize("precision", predictor.PRECISIONS)
 @pytest.mark.parametrize("variant", ["unet_s", "fssgi"])
 def test_extreme_hdr_is_finite_and_within_the_output_bound(variant, precision, trained):
     """Case 2: lights 1e4 times brighter than the training data (direct ~1e4), passes of 1e5, and the
     largest float32 give a finite, non-negative output below OUTPUT_BOUND x max(1, brightest input light),
     in float32, float32 channels-last and bfloat16."""
-    pred = checkpoint.load_predictor(trained[variant], precision=precision)
+    pred = predictor.load_predictor(trained[variant], precision=precision)
     for light in (1e4, 1e5 / 3.0, 3.0e38):  # synthetic direct peaks ~3-10 times its scale
         g = groups(40, 24, seed=3, light=1.0)
         g["direct"] = np.minimum(g["direct"].astype(np.float64) * light, 3.4e38).astype(np.float32)
@@ -150,7 +151,7 @@ def test_half_exr_storage_saturates_instead_of_overflowing(tmp_path, trained):
     g = groups(12, 8)
     g["direct"][2, 3] = 1e5
     g.update(eevee=np.zeros((8, 12, 4), np.float32), ref=np.zeros((8, 12, 3), np.float32))
-    pred = checkpoint.load_predictor(trained["unet_s"])
+    pred = predictor.load_predictor(trained["unet_s"])
     for half, expect in ((True, 65504.0), (False, 1e5)):
         p = tmp_path / f"h{int(half)}.exr"
         exrio.write_sample(p, g, half=half)
@@ -178,8 +179,8 @@ def test_all_zero_scene_predicts_zero_untrained(variant):
 def test_all_zero_scene_predicts_zero_trained(variant, trained):
     """Case 4: the same for trained models, including the seed's plain log head, and the zero stays zero at
     odd sizes and in bfloat16."""
-    for precision in checkpoint.PRECISIONS:
-        pred = checkpoint.load_predictor(trained[variant], precision=precision)
+    for precision in predictor.PRECISIONS:
+        pred = predictor.load_predictor(trained[variant], precision=precision)
         for w, h in ((1, 1), (48, 32), (7, 3)):
             zero = {k: np.zeros_like(v) for k, v in groups(w, h).items()}
             assert pred.predict(zero).max() == 0.0, (precision, w, h)
@@ -197,12 +198,12 @@ def test_odd_sizes_keep_their_shape_and_tiling_agrees(hw, trained):
     finite, and tiled prediction equals untiled to the stated tolerance."""
     h, w = hw
     for v in trained if h * w < 1e5 else ["unet_s"]:
-        pred = checkpoint.load_predictor(trained[v])
+        pred = predictor.load_predictor(trained[v])
         g = groups(w, h, seed=h + w)
         full = pred.predict(g, tile=None)
         assert full.shape == (h, w, 3) and full.dtype == np.float32
         assert np.isfinite(full).all() and (full >= 0).all()
-        tile = checkpoint.DEFAULT_TILE if h * w > 1e6 else 4
+        tile = predictor.DEFAULT_TILE if h * w > 1e6 else 4
         tiled = pred.predict(g, tile=tile)
         np.testing.assert_allclose(tiled, full, rtol=TILE_RTOL, atol=TILE_ATOL, err_msg=f"{v} {hw}")
 
@@ -228,7 +229,7 @@ PRECISION_MIN_TM_PSNR = {"fp32": math.inf, "fp32-cl": 100.0, "bf16-cl": 50.0}
 def test_every_precision_path_has_a_stated_bound():
     """Case 6: this suite knows a PSNR bound for every inference precision the Predictor offers: a new
     reduced-precision or quantized path fails here until it is measured and stated."""
-    assert set(PRECISION_MIN_TM_PSNR) == set(checkpoint.PRECISIONS)
+    assert set(PRECISION_MIN_TM_PSNR) == set(predictor.PRECISIONS)
 
 
 @pytest.mark.parametrize("variant", ["unet_s", "fssgi"])
@@ -238,11 +239,11 @@ def test_reduced_precision_agrees_with_float32_on_hdr(variant, trained):
     g = groups(64, 40, seed=9)
     rng = np.random.default_rng(9)
     g["direct"] = (10.0 ** rng.uniform(-3, 3, g["direct"].shape)).astype(np.float32)
-    ref = checkpoint.load_predictor(trained[variant], precision="fp32").predict(g)
+    ref = predictor.load_predictor(trained[variant], precision="fp32").predict(g)
     assert g["direct"].max() > 900 and ref.max() > 1.0  # HDR in, HDR out (a log-head model trained on
     # light ~1-3 predicts up to ~6 here: it does not extrapolate, which is not what this case is about)
     for prec, bound in PRECISION_MIN_TM_PSNR.items():
-        out = checkpoint.load_predictor(trained[variant], precision=prec).predict(g)
+        out = predictor.load_predictor(trained[variant], precision=prec).predict(g)
         assert metrics.tm_psnr(out, ref) >= bound, (prec, metrics.tm_psnr(out, ref))
 
 
@@ -251,7 +252,7 @@ def test_half_exr_inputs_agree_with_float_inputs(tmp_path, trained):
     the same sample stored as float32, on HDR inputs."""
     g = groups(48, 32, seed=11, light=50.0)
     g.update(eevee=np.zeros((32, 48, 4), np.float32), ref=np.zeros((32, 48, 3), np.float32))
-    pred = checkpoint.load_predictor(trained["unet_s"])
+    pred = predictor.load_predictor(trained["unet_s"])
     outs = []
     for half in (True, False):
         exrio.write_sample(tmp_path / "s.exr", g, half=half)

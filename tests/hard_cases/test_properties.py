@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from ssgi.model import channels as ch
-from ssgi.model.learn import checkpoint, network
+from ssgi.model.learn import network
+from ssgi.model.infer import predictor
 from ssgi.model import metrics, normalize
 from ssgi.model.infer.bench import synthetic_groups
 from ssgi.model.errors import UserError
@@ -166,7 +167,7 @@ def test_tiled_forward_equals_untiled_for_any_size_and_tile(variant, h, w, tile,
     x = torch.from_numpy(normalize.to_inputs(g, ch.DEFAULT_INPUTS)[0]).permute(2, 0, 1)[None].contiguous()
     with torch.inference_mode():
         full = net(x)
-        tiled = checkpoint.tiled_forward(net, x, tile=tile)
+        tiled = predictor.tiled_forward(net, x, tile=tile)
     assert tiled.shape == full.shape == (1, 3, h, w)
     torch.testing.assert_close(tiled, full, rtol=1e-4, atol=1e-5)
 

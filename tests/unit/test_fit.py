@@ -11,11 +11,12 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model.learn import checkpoint, fit, network
-from ssgi.model import normalize
+from ssgi.model.learn import checkpoint, data, fit, network
+from ssgi.model.infer import predictor
+from ssgi.model import images, normalize
 from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
-from ssgi.model.learn.train import TrainConfig, evaluate
+from ssgi.model.learn.train import TrainConfig, Trainer, evaluate
 
 ABLATE_ALL = 1000.0  # a drop tolerance that drops every group the head does not need
 
@@ -101,12 +102,12 @@ def test_config_refuses_overlapping_or_empty_splits(views):
 
 
 def test_fit_trainer_uses_the_given_views_and_starting_weights(views, generic, tmp_path):
-    v = fit.Views(views, KEYS)
-    ds = v.dataset(ch.DEFAULT_INPUTS, TRAIN, VAL)
+    v = data.StoredSamples(views, KEYS)
+    ds = v.dataset(ch.DEFAULT_INPUTS, TRAIN + VAL)
     ck = checkpoint.load(generic)
     cfg = TrainConfig(data=str(views), out=str(tmp_path / "t.pt"), variant="unet_s", inputs=ch.format_spec(ch.DEFAULT_INPUTS),
                       epochs=1, crop=32, batch=4, command="test")
-    tr = fit.FitTrainer(cfg, ds, init_state=ck["state_dict"], log=lambda m: None)
+    tr = Trainer(cfg, ds, split=(TRAIN, VAL), init_state=ck["state_dict"], log=lambda m: None)
     tr._setup()
     assert [s.key for s in tr.train_set] == TRAIN and [s.key for s in tr.val_set] == VAL
     for k, w in ck["state_dict"].items():
@@ -124,7 +125,7 @@ def test_views_build_inputs_as_the_render_path_does(views, tmp_path):
     d = synthetic.make_dataset(tmp_path / "v", scenes=1, per_scene=1, w=48, h=32, seed=3)
     exrio.write_sample(d / "000000.exr", g)
     g = exrio.read_sample(d / "000000.exr")  # as stored (half floats)
-    s = fit.Views(d, KEYS[:1]).samples(spec, KEYS[:1], "x")[0]
+    s = data.StoredSamples(d, KEYS[:1]).samples(spec, KEYS[:1])[0]
     want, _ = normalize.to_inputs({k: g[k] for k in ("albedo", "depth", "direct", "normal")}, spec)
     np.testing.assert_array_equal(s.x.permute(1, 2, 0).numpy(), want)
     without, _ = normalize.to_inputs({k: g[k] for k in ("albedo", "depth", "direct")}, spec)
@@ -137,7 +138,7 @@ def test_fit_writes_a_checkpoint_with_only_the_kept_inputs(fitted):
     ck = checkpoint.load(fitted["out"])
     # every group the residual head does not need was dropped (tolerance ABLATE_ALL)
     assert tuple(ck["inputs"]) == ("albedo", "direct") == tuple(ck["arch"]["inputs"])
-    pred = checkpoint.load_predictor(fitted["out"])
+    pred = predictor.load_predictor(fitted["out"])
     assert pred.required == ("albedo", "direct")
     assert fitted["res"]["passes"] == ["use_pass_diffuse_color", "use_pass_diffuse_direct"]
     # the report is in the checkpoint and beside it, and they agree
@@ -154,23 +155,23 @@ def test_fit_report_numbers_are_the_models_own(fitted, views):
     the generic model's too."""
     ck = checkpoint.load(fitted["out"])
     rep = ck["fit"]
-    v = fit.Views(views, KEYS)
+    v = data.StoredSamples(views, KEYS)
     net = checkpoint.build_net(ck)
-    got = evaluate(net, v.samples(tuple(ck["inputs"]), TEST, "t"))["val_psnr"]
+    got = evaluate(net, v.samples(tuple(ck["inputs"]), TEST))["val_psnr"]
     assert got == pytest.approx(rep["final"]["test"]["psnr"], abs=1e-6)
     gck = checkpoint.load(fitted["cfg"].init)
     gnet = checkpoint.build_net(gck)
-    gv = evaluate(gnet, v.samples(tuple(gck["inputs"]), TEST, "t"))["val_psnr"]
+    gv = evaluate(gnet, v.samples(tuple(gck["inputs"]), TEST))["val_psnr"]
     assert gv == pytest.approx(rep["generic"]["test"]["psnr"], abs=1e-6)
 
     # as the node shows them: the saved models loaded the node's way, each test view predicted from its
     # stored groups, MSE pooled over the geometry pixels
     def node_psnr(path):
-        pred = checkpoint.load_predictor(path)
+        pred = predictor.load_predictor(path)
         se, n = 0.0, 0
         for k in TEST:
             g = v.raw[k]
-            m = normalize.geometry_mask(g["depth"], g["normal"])
+            m = images.geometry_mask(g["depth"], g["normal"])
             out, ref = np.clip(pred.predict(g)[m], 0, 1), np.clip(normalize.target(g)[m], 0, 1)
             se, n = se + float(((out.astype(np.float64) - ref) ** 2).sum()), n + out.size
         return 10 * math.log10(1 / (se / n))

@@ -1,5 +1,6 @@
 """model/: normalisation, networks, metrics, checkpoints and the predictor (bpy-free, in process, fast)."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,7 +11,8 @@ from hypothesis.extra.numpy import arrays
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network
-from ssgi.model import metrics, normalize
+from ssgi.model.infer import predictor
+from ssgi.model import images, metrics, normalize
 from ssgi.model.infer.bench import synthetic_groups
 from ssgi.model.errors import UserError
 
@@ -25,7 +27,7 @@ def _net(variant, spec=ch.DEFAULT_INPUTS, seed=0, **kw):
 
 def _predictor(variant, **kw):
     net = _net(variant, **kw)
-    return checkpoint.Predictor(net, checkpoint.make(net, "network", command="test"))
+    return predictor.Predictor(net, checkpoint.make(net, "network", command="test"))
 
 
 # ---------------------------------------------------------------- normalisation
@@ -48,7 +50,7 @@ def test_depth_normalisation_is_scale_free_and_in_unit_range(z, scale):
 def test_depth_normalisation_is_finite_for_any_depth_and_background_is_one(z):
     a = normalize.depth_normalise(z)
     assert np.isfinite(a).all() and (a >= 0).all() and (a <= 1).all()
-    bg = ~normalize.geometry_mask(z)
+    bg = ~images.geometry_mask(z)
     assert (a[bg] == 1).all()
 
 
@@ -178,7 +180,7 @@ def test_tiled_equals_untiled(variant):
     x = torch.from_numpy(normalize.to_inputs(synthetic_groups(83, 61, seed=3), ch.DEFAULT_INPUTS)[0]).permute(2, 0, 1)[None]
     with torch.inference_mode():
         full = net(x)
-        tiled = checkpoint.tiled_forward(net, x, tile=16)
+        tiled = predictor.tiled_forward(net, x, tile=16)
     assert tiled.shape == full.shape
     torch.testing.assert_close(tiled, full, rtol=1e-4, atol=1e-5)
 
@@ -205,7 +207,7 @@ def test_predictor_nan_inf_extreme_hdr_and_black():
     g["direct"] *= np.float32(1e5)
     out = pred.predict(g)
     assert np.isfinite(out).all()
-    assert out.max() <= checkpoint.OUTPUT_BOUND * g["direct"].max()
+    assert out.max() <= predictor.OUTPUT_BOUND * g["direct"].max()
     black = {k: np.zeros_like(v) for k, v in g.items()}
     assert np.abs(pred.predict(black)).max() == 0.0  # residual head: zero albedo -> zero light
 
@@ -216,9 +218,9 @@ def test_checkpoint_roundtrip_and_errors(tmp_path):
     net = _net("unet_s")
     p = tmp_path / "m.pt"
     checkpoint.save(p, checkpoint.make(net, "network", command="test"))
-    pred = checkpoint.load_predictor(p)
+    pred = predictor.load_predictor(p)
     g = synthetic_groups(33, 17)
-    ref = checkpoint.Predictor(net, checkpoint.make(net, "network")).predict(g)
+    ref = predictor.Predictor(net, checkpoint.make(net, "network")).predict(g)
     np.testing.assert_array_equal(pred.predict(g), ref)
     assert pred.spec == ch.DEFAULT_INPUTS
 
@@ -229,22 +231,22 @@ def test_checkpoint_roundtrip_and_errors(tmp_path):
     txt = tmp_path / "notes.txt"
     txt.write_text("hello")
     with pytest.raises(UserError, match=r"notes\.txt: not an SSGI model checkpoint"):
-        checkpoint.load_predictor(txt)
+        predictor.load_predictor(txt)
     plain = tmp_path / "plain.pt"
     torch.save(net.state_dict(), plain)
     with pytest.raises(UserError, match=r"plain\.pt: not an SSGI"):
-        checkpoint.load_predictor(plain)
+        predictor.load_predictor(plain)
     # another architecture: weights of unet_s under unet's arch
     d = checkpoint.load(p)
     d["arch"] = network.arch_for("unet")
     other = tmp_path / "other.pt"
     torch.save(d, other)
     with pytest.raises(UserError, match=r"other\.pt: weights do not match architecture 'unet'"):
-        checkpoint.load_predictor(other)
+        predictor.load_predictor(other)
     d["arch"] = dict(d["arch"], backbone="transformer")
     torch.save(d, other)
     with pytest.raises(UserError, match=r"other\.pt: unsupported architecture"):
-        checkpoint.load_predictor(other)
+        predictor.load_predictor(other)
 
 
 def test_save_refuses_nan_weights_and_keeps_previous(tmp_path):
@@ -267,11 +269,11 @@ def test_bf16_path_agrees_with_fp32():
     ck = checkpoint.make(net, "network")
     g = synthetic_groups(64, 40)
     g["direct"] *= np.float32(50)
-    a = checkpoint.Predictor(net, ck).predict(g)
-    b = checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)
+    a = predictor.Predictor(net, ck).predict(g)
+    b = predictor.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)
     assert metrics.tm_psnr(b, a) >= 40
     g["direct"] *= np.float32(2000)
-    assert np.isfinite(checkpoint.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)).all()
+    assert np.isfinite(predictor.Predictor(_net("unet"), ck, precision="bf16-cl").predict(g)).all()
 
 
 def test_predictor_1921x1081_keeps_shape_and_tiles_match():
@@ -287,7 +289,7 @@ def test_inputs_are_configurable_and_heads_name_what_they_need():
     spec = ("albedo", "normal", "depth", "direct", "ao")
     net = _net("unet_s", spec=spec)
     assert network.in_channels(net) == 11 and tuple(net.arch["inputs"]) == spec
-    pred = checkpoint.Predictor(net, checkpoint.make(net, "network"))
+    pred = predictor.Predictor(net, checkpoint.make(net, "network"))
     assert pred.required == spec
     assert pred.predict(synthetic_groups(9, 7)).shape == (7, 9, 3)
     with pytest.raises(UserError, match=r"head 'residual' needs input group\(s\) albedo, direct"):
@@ -318,11 +320,11 @@ def test_datasets_from_before_the_world_group_still_read_verify_and_feed_trainin
     from ssgi.model.learn import data
     from ssgi.model.dataset import folder as dataset, exrio, synthetic
     new = synthetic.make_dataset(tmp_path / "new", scenes=2, per_scene=1, w=16, h=8)
-    assert "world" in dataset.stored_groups(dataset.load_manifest(new))
+    assert "world" in dataset.stored_groups(dataset.open_folder(new))
     assert dataset.verify(new) == []
     old = synthetic.make_dataset(tmp_path / "old", scenes=2, per_scene=1, w=16, h=8)
     _strip_world(old)
-    assert dataset.stored_groups(dataset.load_manifest(old)) == tuple(g for g in ch.SAMPLE_GROUPS if g != "world")
+    assert dataset.stored_groups(dataset.open_folder(old)) == tuple(g for g in ch.SAMPLE_GROUPS if g != "world")
     assert dataset.verify(old) == []
     assert "world" not in exrio.read_sample(old / "000000.exr") and "world" in exrio.read_sample(new / "000000.exr")
     # the inputs without `world` load from the old dataset; asking for `world` names the file and channel
@@ -334,7 +336,181 @@ def test_datasets_from_before_the_world_group_still_read_verify_and_feed_trainin
         exrio.read_sample(old / "000000.exr", ("world",))
     # a new dataset whose sample lost its world channels is caught by verify, naming the file
     _strip_world(new)
-    m = dataset.load_manifest(old)
+    m = dataset.open_folder(old)
     (new / "manifest.json").write_text(__import__("json").dumps({**m, "channel_spec": ch.describe()}))
     problems = dataset.verify(new)
     assert problems and all("world.R" in p for p in problems) and "000000.exr" in problems[0]
+
+
+# ---------------------------------------------------------------- files: one atomic writer, one temp pattern, one sweeper
+
+def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
+    """Every file the model side writes goes through files.atomic_write: its os.replace always moves a
+    ``.FINAL.PID.tmp`` beside the final file onto the final name (a writer with its own temp name fails)."""
+    import os
+
+    from ssgi.model import files
+    from ssgi.model.dataset import exrio, folder as dataset, preview, synthetic
+    from ssgi.model.evaluate import report
+    from ssgi.model.learn import curves
+    moves = []
+    real = os.replace
+    monkeypatch.setattr(os, "replace", lambda a, b: (moves.append((Path(a), Path(b))), real(a, b))[1])
+    d = synthetic.make_dataset(tmp_path / "ds", scenes=1, per_scene=1, w=8, h=6)
+    exrio.write_sample(tmp_path / "s.exr", synthetic.sample(8, 6, 0, 0))
+    dataset.write_manifest(d, dataset.open_folder(d), "manifest.shard-0-of-2.json")
+    preview.preview(d, tmp_path / "sheet.png")
+    net = _net("fssgi")
+    checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
+    images.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
+    report.write_json(tmp_path / "r.json", {"a": math.inf})
+    curves.curve_png([dict(minutes=0.1, val_psnr=20.0, val_tm_psnr=21.0)], tmp_path / "c.png")
+    assert len(moves) >= 9
+    for src, dst in moves:
+        m = files.TEMP_RE.match(src.name)
+        assert m and m.group("final") == dst.name and int(m.group("pid")) == os.getpid() and src.parent == dst.parent
+    assert not [p for p in tmp_path.rglob("*") if files.TEMP_RE.match(p.name)]
+
+
+def test_atomic_write_keeps_the_old_file_when_the_writer_fails(tmp_path):
+    from ssgi.model import files
+    p = files.write_text(tmp_path / "a.json", "old")
+
+    def broken(tmp):
+        Path(tmp).write_text("half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        files.atomic_write(p, broken)
+    assert p.read_text() == "old" and sorted(x.name for x in tmp_path.iterdir()) == ["a.json"]
+
+
+def test_sweep_removes_only_temp_files_owned_and_old_of_dead_processes(tmp_path):
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from ssgi.model import files
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    names = [".000001.exr.424242.tmp", ".000002.exr.424242.tmp", ".manifest.json.7.tmp", "000001.exr",
+             ".hidden", "x.tmp", f".000003.exr.{child.pid}.tmp", f".000004.exr.{os.getpid()}.tmp"]
+    for n in names:
+        (tmp_path / n).write_bytes(b"")
+    # owned: a shard sweeps only its own names
+    assert files.sweep(tmp_path, owned=lambda n: n == "000002.exr") == [".000002.exr.424242.tmp"]
+    # min_age_s: the dead process's file only once old; never this process's own
+    assert files.sweep(tmp_path, min_age_s=600) == []
+    old = time.time() - 1200
+    for n in names[:1] + names[6:]:
+        os.utime(tmp_path / n, (old, old))
+    swept = files.sweep(tmp_path, min_age_s=600)
+    assert f".000003.exr.{child.pid}.tmp" in swept and f".000004.exr.{os.getpid()}.tmp" not in swept
+    # no options: every temporary file goes, no final name, nothing outside the pattern
+    files.sweep(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["000001.exr", ".hidden", "x.tmp"])
+    s = files.scratch("ssgi-render", ".exr", folder=tmp_path)
+    m = files.TEMP_RE.match(s.name)
+    assert m and m.group("final").startswith("ssgi-render-") and m.group("final").endswith(".exr")
+
+
+# ---------------------------------------------------------------- the dataset format's one owner
+
+def test_settings_schema_writes_every_identity_key_and_one_entry_reads_folders(tmp_path):
+    """model/dataset/folder.py builds the settings the baker writes: every key that decides whether samples
+    may share a folder (IDENTITY_SETTINGS) is in them, and differing settings are refused; open_folder is the
+    one entry for a folder (shards while a farm bake runs, scene ids for the split)."""
+    import json
+
+    from ssgi.model.dataset import folder as dataset, synthetic
+    eevee = {"world": "black"}
+    rooms = dataset.settings("rooms", (32, 18), 2, False, 1, diffuse_bounces=3, eevee=eevee, first_seed=5)
+    scenes = dataset.settings("scenes", (32, 18), 2, True, 1, diffuse_bounces=3, eevee=eevee, scenes=["a.blend"],
+                              frames=[1, 2], ref_target_db=41.0)
+    for s in (rooms, scenes):
+        assert set(dataset.IDENTITY_SETTINGS) - set(s) <= {"first_seed", "scenes", "frames"}
+    assert set(dataset.IDENTITY_SETTINGS) <= set(rooms) | set(scenes)
+    assert rooms["eevee"] == eevee and scenes["cycles"]["denoiser"] == "OPENIMAGEDENOISE"
+    with pytest.raises(UserError, match=r"baked with ref_samples=2 \(not ref_samples=3\)"):
+        dataset.check_compatible({"settings": rooms}, dict(rooms, ref_samples=3), "here")
+    d = synthetic.make_dataset(tmp_path / "d", scenes=2, per_scene=1, w=8, h=8)
+    assert dataset.sample_path(d, "000001") == d / "000001.exr" and (d / "000001.exr").is_file()
+    m = dataset.open_folder(d, scenes=True)
+    assert sorted(m["samples"]) == ["000000", "000001"] and dataset.manifest_sha256(d)
+    # a farm bake before its merge: the shard manifests' union, only when asked for
+    for i, key in enumerate(sorted(m["samples"])):
+        dataset.write_manifest(d, dict(m, samples={key: m["samples"][key]}), dataset.shard_manifest_name((i, 2)))
+    (d / "manifest.json").unlink()
+    assert dataset.open_folder(d, shards=True)["samples"] == m["samples"]
+    with pytest.raises(UserError, match=r"manifest\.json: no manifest\.json in the dataset folder"):
+        dataset.open_folder(d)
+    with pytest.raises(UserError, match=r"nope: dataset folder does not exist"):
+        dataset.open_folder(tmp_path / "nope")
+    dataset.write_manifest(d, dict(m, samples={"000000": {"seed": 1}}))
+    assert dataset.open_folder(d)["samples"] == {"000000": {"seed": 1}}
+    with pytest.raises(UserError, match=r"sample '000000' has no 'scene' id"):
+        dataset.open_folder(d, scenes=True)
+    assert json.loads((d / "manifest.json").read_text())["format_version"] == ch.FORMAT_VERSION
+
+
+def test_score_is_the_one_scoring_and_pools_exactly():
+    """metrics.score: PSNRs over the masked pixels, SSIM/FLIP with the reference pasted where nothing was hit;
+    PooledPSNR.add_score pools bit-identically to adding the masked pixels themselves."""
+    rng = np.random.default_rng(3)
+    refs = [rng.uniform(0, 2, (9, 11, 3)).astype(np.float32) for _ in range(3)]
+    preds = [r + rng.normal(0, 0.1, r.shape).astype(np.float32) for r in refs]
+    masks = [rng.uniform(size=(9, 11)) > 0.3 for _ in refs]
+    a, b = metrics.PooledPSNR(), metrics.PooledPSNR()
+    ta, tb = metrics.PooledPSNR(tonemapped=True), metrics.PooledPSNR(tonemapped=True)
+    for p, r, m in zip(preds, refs, masks):
+        s = metrics.score(p, r, m)
+        a.add_score(s)
+        ta.add_score(s)
+        b.add(p[m], r[m])
+        tb.add(p[m], r[m])
+        assert s["psnr"] == metrics.psnr(p[m], r[m]) and s["pixels"] == 3 * int(m.sum())
+        pasted = np.where(m[..., None], p, r)
+        assert s["ssim"] == metrics.ssim(pasted, r) and s["flip"] == metrics.flip(pasted, r)
+    assert (a.value, ta.value) == (b.value, tb.value)
+    assert metrics.score(preds[0], refs[0], with_flip=False, with_ssim=False)["flip"] is None
+
+
+def test_one_linear_to_srgb8_rule_and_one_geometry_mask():
+    """images.srgb8: Reinhard then the sRGB curve (0 -> 0, 1 -> sRGB(0.5) = 188, +Inf -> 255, NaN -> 0), and
+    the float images.srgb the report draws is the same curve; images.geometry_mask: depth in (0, 1e9) and a
+    normal longer than 0.5, the mask of the depth normalisation's background."""
+    lin = np.array([[[0.0, 1.0, np.inf], [np.nan, -1.0, 1e9]]], np.float32)
+    assert images.srgb8(lin).tolist() == [[[0, 188, 255], [0, 0, 255]]]
+    assert np.array_equal(np.round(images.srgb(lin) * 255).astype(np.uint8), images.srgb8(lin))
+    assert images.srgb8(np.full((1, 1, 3), 0.5, np.float32), exposure=2.0).tolist() == [[[188] * 3]]
+    z = np.array([[1.0, 0.0, np.nan, 2e9, 3.0]], np.float32)[..., None]
+    n = np.array([[[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0, 1], [0.3, 0.3, 0.3]]], np.float32)
+    assert images.geometry_mask(z).tolist() == [[True, False, False, False, True]]
+    assert images.geometry_mask(z, n).tolist() == [[True, False, False, False, True]]
+    n[0, 4] = [0.2, 0.2, 0.2]  # |n| = 0.35: an edge pixel that is mostly background
+    assert images.geometry_mask(z, n).tolist() == [[True, False, False, False, False]]
+    assert normalize.depth_normalise(z, n)[0, 4, 0] == 1.0  # background for the depth normalisation too
+
+
+def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_ablation(monkeypatch):
+    """The channel spec is the one list: a new stored input group shows in the preview's columns (in its own
+    style), in the benchmark's synthetic inputs and in the fit's ablation order, and its render pass is the
+    one the Blender side reads."""
+    from dataclasses import replace
+
+    from ssgi.model.dataset import folder as dataset, preview
+    from ssgi.model.infer import bench
+    from ssgi.model.learn import fit
+    new = replace(ch.GROUPS["ao"], name="curvature", render_pass="Curvature", preview="grey", drop_rank=1)
+    monkeypatch.setattr(ch, "GROUPS", {**ch.GROUPS, "curvature": new})
+    monkeypatch.setattr(ch, "SAMPLE_GROUPS", ch.SAMPLE_GROUPS[:-2] + ("curvature",) + ch.SAMPLE_GROUPS[-2:])
+    monkeypatch.setattr(ch, "INPUT_GROUPS", ch.INPUT_GROUPS + ("curvature",))
+    m = dataset.new_manifest({}, "test")
+    assert "curvature" in preview.columns(m) and preview.columns(m)[-1] == "ref"
+    assert preview._tile("curvature", np.full((2, 2, 1), 0.5, np.float32)).shape == (2, 2, 3)
+    assert bench.synthetic_groups(4, 3)["curvature"].shape == (3, 4, 1)
+    assert ch.drop_order()[:3] == ("world", "curvature", "scene")
+    spec = ch.parse_spec("albedo,direct,curvature")
+    assert fit.droppable(spec, "residual") == ["curvature"]
+    assert {g.name: g.render_pass for g in ch.GROUPS.values()}["curvature"] == "Curvature"

@@ -18,9 +18,9 @@ def test_psnr_of_a_known_mse_pooled_over_geometry_and_scenes():
     mask[:, :6] = True
     pred = ref + np.float32(0.1)  # MSE 0.01 on the scored pixels -> 20 dB
     pred[~mask] += 0.3  # outside the geometry: not scored
-    a = rep.image_metrics(pred, ref, mask)
+    a = metrics.score(pred, ref, mask)
     assert a["psnr"] == pytest.approx(20.0, abs=1e-4) and a["pixels"] == 60 * 3
-    b = rep.image_metrics(ref + np.float32(0.2), ref, mask)  # MSE 0.04 -> 13.98 dB
+    b = metrics.score(ref + np.float32(0.2), ref, mask)  # MSE 0.04 -> 13.98 dB
     assert b["psnr"] == pytest.approx(10 * math.log10(1 / 0.04), abs=1e-4)
     # tonemapped PSNR: errors measured after x / (1 + x)
     assert a["tm_psnr"] == pytest.approx(metrics.tm_psnr(pred[mask], ref[mask]), abs=1e-9) and a["tm_psnr"] > a["psnr"]
@@ -33,7 +33,7 @@ def test_psnr_of_a_known_mse_pooled_over_geometry_and_scenes():
 def test_ssim_and_flip_of_identical_images():
     rng = np.random.default_rng(1)
     img = rng.uniform(0, 3, (24, 40, 3)).astype(np.float32)
-    m = rep.image_metrics(img, img)
+    m = metrics.score(img, img)
     assert m["ssim"] == pytest.approx(1.0) and m["flip"] == 0.0 and m["psnr"] == math.inf
 
 
@@ -68,12 +68,12 @@ def test_flip_of_black_against_white_matches_the_papers_formula():
     black, white = np.zeros((16, 16, 3), np.float32), np.ones((16, 16, 3), np.float32)
     _, mean, _ = flip_evaluator.evaluate(black, white, "LDR", inputsRGB=False, applyMagma=False)
     assert mean == pytest.approx(want, abs=2e-4)
-    # report.flip scores a reference with no light by LDR-FLIP: the same number
-    assert rep.flip(white, black) == pytest.approx(want, abs=2e-4)
+    # metrics.flip scores a reference with no light by LDR-FLIP: the same number
+    assert metrics.flip(white, black) == pytest.approx(want, abs=2e-4)
     # HDR-FLIP grows with the error
     rng = np.random.default_rng(2)
     ref = rng.uniform(0, 2, (32, 32, 3)).astype(np.float32)
-    assert 0 < rep.flip(ref * 1.1, ref) < rep.flip(ref * 1.5, ref)
+    assert 0 < metrics.flip(ref * 1.1, ref) < metrics.flip(ref * 1.5, ref)
 
 
 def test_temporal_change_is_the_mean_step_of_the_tonemapped_error():

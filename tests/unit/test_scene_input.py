@@ -4,6 +4,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, network
+from ssgi.model.infer import predictor
 from ssgi.model import normalize
 from ssgi.model.infer.bench import synthetic_groups
 
@@ -30,7 +31,7 @@ def test_scene_stats_are_the_image_means_over_geometry():
 def test_scene_input_tiled_prediction_equals_untiled():
     torch.manual_seed(0)
     net = network.build(network.arch_for("unet", SPEC)).eval()
-    pred = checkpoint.Predictor(net, checkpoint.make(net, "network", command="test"))
+    pred = predictor.Predictor(net, checkpoint.make(net, "network", command="test"))
     g = synthetic_groups(150, 90, seed=2)
     full = pred.predict(g, tile=None)
     tiled = pred.predict(g, tile=32)

@@ -8,6 +8,7 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.learn import checkpoint, data, network
+from ssgi.model.infer import predictor
 from ssgi.model.dataset import exrio, synthetic
 from ssgi.model.dataset import folder as ds_mod
 from ssgi.model.learn.baseline import fit, run_baseline
@@ -51,21 +52,21 @@ def test_dataset_errors_name_the_file(tmp_path, dataset_dir):
     (d / "manifest.json").write_text(json.dumps(m))
     with pytest.raises(UserError, match=r"manifest.json: manifest format_version \d+ is newer"):
         data.DatasetFolder.load(d)
-    # one reader of the format (model/dataset.read_manifest) serves training, the baker and verify alike
+    # one reader of the format (model/dataset/folder.open_folder) serves training, the baker and verify alike
     for bad, says in ((ch.FORMAT_VERSION - 1, rf"format_version {ch.FORMAT_VERSION - 1} is older than "
                        rf"{ch.FORMAT_VERSION}; re-bake"), ("3", r"has no integer 'format_version' \('3'\)"),
                       (True, r"has no integer 'format_version' \(True\)")):
         (d / "manifest.json").write_text(json.dumps(dict(m, format_version=bad)))
-        for read in (data.read_manifest, lambda root: ds_mod.load_manifest(root)):
+        for read in (lambda root: ds_mod.open_folder(root, scenes=True), ds_mod.open_folder):
             with pytest.raises(UserError, match=r"manifest.json: manifest " + says):
                 read(d)
     (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION, samples=[])))
     with pytest.raises(UserError, match=r"manifest.json: not an SSGI dataset manifest .*no 'samples' table"):
-        data.read_manifest(d)
+        ds_mod.open_folder(d, scenes=True)
     (d / "manifest.json").write_text(json.dumps(dict(m, format_version=ch.FORMAT_VERSION,
                                                      samples={"000000": {"seed": 1}})))
     with pytest.raises(UserError, match=r"manifest.json: sample '000000' has no 'scene' id"):
-        data.read_manifest(d)
+        ds_mod.open_folder(d, scenes=True)
     m["format_version"] = ch.FORMAT_VERSION
     (d / "manifest.json").write_text(json.dumps(m))
     (d / "000001.exr").unlink()
@@ -99,7 +100,7 @@ def test_training_learns_and_writes_checkpoints(tmp_path, dataset_dir):
     assert max(h["val_psnr"] for h in hist) > hist[0]["val_psnr"]
     assert ck["best"]["val_psnr"] == max(h["val_psnr"] for h in hist)
     assert ck["dataset"]["split"]["val"] and set(ck["dataset"]["split"]["val"]).isdisjoint(ck["dataset"]["split"]["train"])
-    assert ck["dataset"]["manifest_sha256"] == data.manifest_sha256(dataset_dir)
+    assert ck["dataset"]["manifest_sha256"] == ds_mod.manifest_sha256(dataset_dir)
     assert ck["command"] == "test" and ck["arch"]["variant"] == "unet_s" and ck["inputs"] == list(ch.DEFAULT_INPUTS)
     assert "train_state" not in ck and "train_state" in checkpoint.load(checkpoint.last_path(out))
     assert checkpoint.curve_path(out).stat().st_size > 1000
@@ -107,7 +108,7 @@ def test_training_learns_and_writes_checkpoints(tmp_path, dataset_dir):
     assert len(ep) == 4 and all({"epoch", "loss", "val_psnr", "eta_s", "progress"} <= set(e) for e in ep)
     assert ep[-1]["progress"] == 1.0
     # the best checkpoint predicts like the network did at its best epoch
-    pred = checkpoint.load_predictor(out)
+    pred = predictor.load_predictor(out)
     s = data.DatasetFolder.load(dataset_dir).subset(ck["dataset"]["split"]["val"])[0]
     g = exrio.read_sample(dataset_dir / f"{s.key}.exr")
     assert np.isfinite(pred.predict(g)).all()
@@ -193,7 +194,7 @@ def test_linear_fit_recovers_an_exact_linear_map():
 
 def test_baseline_checkpoint_predicts_like_a_model(tmp_path, dataset_dir):
     res = run_baseline(dataset_dir, tmp_path / "lin.pt", log=_log([]))
-    pred = checkpoint.load_predictor(tmp_path / "lin.pt")
+    pred = predictor.load_predictor(tmp_path / "lin.pt")
     assert pred.kind == "linear" and pred.arch["variant"] == "linear"
     g = exrio.read_sample(dataset_dir / "000000.exr")
     out = pred.predict(g)
@@ -220,3 +221,17 @@ def test_background_pixels_are_left_out_of_metrics_and_loss(dataset_dir):
     np.testing.assert_allclose(b, [0.25] * 3, atol=1e-6)
     ds = data.DatasetFolder.load(dataset_dir)
     assert all(bool(s.mask.all()) for s in ds.samples)  # synthetic samples: geometry everywhere
+
+
+def test_one_loader_serves_training_and_the_fit(dataset_dir):
+    """DatasetFolder.load (training) and StoredSamples (the fit, many specs from one read) build the same
+    samples bit for bit; keys select samples, and a key the manifest lacks is an error naming the manifest."""
+    keys = ["000001", "000004"]
+    spec = ch.parse_spec("albedo,normal,depth,direct,lit")
+    a = data.DatasetFolder.load(dataset_dir, spec, keys=keys)
+    b = data.StoredSamples(dataset_dir, keys).dataset(spec, keys)
+    assert [s.key for s in a.samples] == [s.key for s in b.samples] == keys
+    for s, t in zip(a.samples, b.samples):
+        assert s.scene == t.scene and torch.equal(s.x, t.x) and torch.equal(s.y, t.y) and torch.equal(s.mask, t.mask)
+    with pytest.raises(UserError, match=r"manifest\.json: lists no sample '999999'"):
+        data.DatasetFolder.load(dataset_dir, spec, keys=["999999"])
