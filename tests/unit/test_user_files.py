@@ -9,6 +9,7 @@ import numpy as np
 
 from ssgi.model.dataset import exrio
 from ssgi.model.dataset import folder as ds
+from ssgi.model.infer import predictor
 from ssgi.model.learn import checkpoint, data
 from ssgi.model.learn.train import TrainConfig, Trainer
 
@@ -21,7 +22,7 @@ def test_old_checkpoint_loads_and_predicts_what_it_predicted_then():
     ck = checkpoint.load(FIX / "ssgi_tiny.pt")
     assert ck["arch"]["variant"] == "unet_s" and ck["arch"]["widths"] == [4, 8, 8]
     assert ck["inputs"] == ["albedo", "normal", "depth", "direct", "lit"]
-    got = checkpoint.load_predictor(FIX / "ssgi_tiny.pt", num_threads=1).predict(
+    got = predictor.load_predictor(FIX / "ssgi_tiny.pt", num_threads=1).predict(
         exrio.read_sample(FIX / "dataset" / "000000.exr"))
     planes, _ = exrio.read_exr(FIX / "predict_000000.exr")  # `cli.py predict` of the old code
     then = np.stack([planes[c] for c in "RGB"], -1)
@@ -32,7 +33,7 @@ def test_old_checkpoint_loads_and_predicts_what_it_predicted_then():
 def test_old_dataset_verifies_and_loads(tmp_path):
     d = shutil.copytree(FIX / "dataset", tmp_path / "dataset")
     assert ds.verify(d) == []
-    m = ds.load_manifest(d)
+    m = ds.open_folder(d)
     assert m["settings"]["size"] == [16, 9] and sorted(m["samples"]) == ["000000", "000001"]
     folder = data.DatasetFolder.load(d)
     assert len(folder.samples) == 2 and not folder.skipped
