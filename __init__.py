@@ -9,12 +9,11 @@ from __future__ import annotations
 
 
 def _modules() -> tuple:
-    from .ops import bake_ops, deps_ops, fit_ops, node_ops, report_ops, train_ops
-    from .panels import bake_panel, fit_panel, main_panel, node_panel, report_panel, train_panel
+    from .ops import bake_ops, deps_ops, fit_ops, job_ops, node_ops, report_ops, train_ops
+    from .panels import bake_panel, fit_panel, main_panel, node_panel, report_panel, status_bar, train_panel
     from .ssgi_addon import preferences, props
-    from .ssgi_addon.pipeline import training
-    return (props, preferences, deps_ops, main_panel, bake_ops, bake_panel, node_ops, node_panel, training,
-            train_ops, train_panel, report_ops, report_panel, fit_ops, fit_panel)
+    return (props, preferences, job_ops, deps_ops, main_panel, status_bar, bake_ops, bake_panel, node_ops,
+            node_panel, train_ops, train_panel, report_ops, report_panel, fit_ops, fit_panel)
 
 
 def _classes() -> list:

@@ -1,9 +1,17 @@
-"""Thin Operator classes: parse the user's intent, call ssgi_addon / model, report.
+"""Thin Operator classes: check the user's input, call ssgi_addon (pipeline, runtime), report.
 
-``TimerSteps`` is the shared modal loop of the operators that must work on the main thread (they render):
-invoked from the UI they do one unit of work per timer tick, with progress in the window manager, and Esc
-stops between units."""
+The mixins here are the two ways an operator runs a background job (ssgi_addon/runtime/jobs.py):
+
+- ``JobSteps`` (on ``TimerSteps``, the modal loop): a main-thread ``StepJob`` (Bake Dataset, Render SSGI). Invoked
+  from the UI it does one unit per timer tick, with progress in the window manager; Esc or ``ssgi.cancel_job``
+  stops between units. Run from a script (``execute``) it runs to the end.
+- ``StartsJob``: a worker-thread or child-process job (Train, Fit to Scene, Report, Install): start it and
+  return; the UI timer pumps it and the panels draw it.
+"""
 from __future__ import annotations
+
+from ..model.errors import UserError
+from ..ssgi_addon.runtime import deps, jobs
 
 TICK_S = 0.05
 
@@ -12,16 +20,6 @@ def redraw(context) -> None:
     """Tag every area of the current screen for redraw (the panels show the progress)."""
     for area in context.screen.areas if context.screen else ():
         area.tag_redraw()
-
-
-def cancel_state(op, state: dict, what: str) -> set:
-    """The body of a Cancel operator for a main-thread job whose state is a plain dict (the bake's and the
-    render's ``STATE``): ask it to stop after the current unit, or warn that ``what`` is not running."""
-    if state.get("status") != "running":
-        op.report({"WARNING"}, f"no {what} is running")
-        return {"CANCELLED"}
-    state["cancel"] = True
-    return {"FINISHED"}
 
 
 class TimerSteps:
@@ -79,3 +77,74 @@ class TimerSteps:
 
     def steps_failed(self, context, message: str) -> None:
         pass
+
+
+class JobSteps(TimerSteps):
+    """Mixin for an operator that runs a ``jobs.StepJob`` (put it first among the bases). The operator
+    implements ``make_job(context)`` (the job, not started; a UserError says what is wrong) and
+    ``summary_text(result)``; ``job_finished(context, job)`` is optional. The job's state holds ``done`` and
+    ``todo`` (its units)."""
+
+    _job = None
+
+    def execute(self, context):
+        try:
+            job = self.make_job(context).start()
+            job.run()
+        except UserError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, self.summary_text(job.result))
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        import bpy
+        if bpy.app.background:
+            return self.execute(context)
+        try:
+            self._job = self.make_job(context).start()
+        except UserError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        return self.start_steps(context, self._job.state.get("todo", 1))
+
+    # TimerSteps: one unit of the job per timer tick
+    def step_work(self, context):
+        return self._job.step(), self._job.state.get("done", 0)
+
+    def stop_request(self):
+        self._job.cancel()
+
+    def steps_finished(self, context):
+        self.report({"INFO"}, self.summary_text(self._job.result))
+        self.job_finished(context, self._job)
+
+    def job_finished(self, context, job) -> None:
+        pass
+
+
+class StartsJob:
+    """Mixin for an operator that starts a background job and returns at once (put it first among the
+    bases). Class attributes: ``job_name`` (greys the button out while that job runs) and ``needs_torch``
+    (refused without PyTorch). ``start_job(context)`` starts it and returns the INFO line; a
+    UserError (or OSError, or a bpy RuntimeError) is reported and nothing runs."""
+
+    job_name = ""
+    needs_torch = False
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and not jobs.running(cls.job_name)
+
+    def execute(self, context):
+        if self.needs_torch and not deps.torch_available():
+            self.report({"ERROR"}, "PyTorch is not installed: install it in Preferences > Add-ons > SSGI")
+            return {"CANCELLED"}
+        try:
+            info = self.start_job(context)
+        except (UserError, OSError, RuntimeError) as e:  # RuntimeError: a bpy call (saving the copy) failed
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        jobs.ensure_timer()
+        self.report({"INFO"}, info)
+        return {"FINISHED"}

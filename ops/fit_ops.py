@@ -1,6 +1,6 @@
 """Operator: Fit to Scene. Thin: checks the settings, saves a copy of the open file (unsaved changes
-included) and starts ``cli.py fit`` on it in a background process (ssgi_addon/fit.py ``start``). The Fit panel
-draws its progress; Cancel is the shared ``ssgi.cancel_job`` (job "fit"), which ends the process."""
+included) and starts ``cli.py fit`` on it in a background process (runtime/ui_jobs.py ``fit``). The Fit panel
+draws its progress; Cancel is ``ssgi.cancel_job`` (job "fit"), which ends the process group."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,8 +8,8 @@ from pathlib import Path
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon.runtime import deps, jobs
-from ..ssgi_addon.pipeline import fit as sfit
+from ..ssgi_addon.runtime import ui_jobs
+from . import StartsJob
 
 
 def fit_out(scene) -> Path:
@@ -29,40 +29,27 @@ def fit_out(scene) -> Path:
     return out
 
 
-class SSGI_OT_fit_scene(bpy.types.Operator):
+class SSGI_OT_fit_scene(StartsJob, bpy.types.Operator):
     """Fit a small model to this scene in the background: bake views of its cameras (plus jittered ones), try
     network sizes smallest first, drop the input passes the scene does not need, and report. Blender stays usable"""
     bl_idname = "ssgi.fit_scene"
     bl_label = "Fit to Scene"
+    job_name = ui_jobs.FIT
+    needs_torch = True
 
-    @classmethod
-    def poll(cls, context):
-        job = jobs.get(sfit.JOB)
-        return context.scene is not None and (job is None or job.done)
-
-    def execute(self, context):
+    def start_job(self, context):
         scene = context.scene
-        ok, _info = deps.torch_status()
-        if not ok:
-            self.report({"ERROR"}, "PyTorch is not installed: install it in Preferences > Add-ons > SSGI")
-            return {"CANCELLED"}
-        try:
-            if not any(o.type == "CAMERA" for o in scene.objects):
-                raise UserError(f"scene {scene.name!r} has no camera: add the camera(s) you render with")
-            out = fit_out(scene)
-            work = out.with_name(out.stem + ".fit")
-            work.mkdir(exist_ok=True)
-            copy = work / "source.blend"
-            bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True)
-            s = scene.ssgi
-            sfit.start(scene, str(copy), str(out), views=int(s.fit_views), minutes=float(s.fit_minutes),
-                       target_psnr=float(s.fit_target_psnr) or None)
-        except (UserError, RuntimeError, OSError) as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        jobs.ensure_timer()
-        self.report({"INFO"}, f"Fitting to scene {scene.name!r} for {s.fit_minutes:g} min -> {out}")
-        return {"FINISHED"}
+        if not any(o.type == "CAMERA" for o in scene.objects):
+            raise UserError(f"scene {scene.name!r} has no camera: add the camera(s) you render with")
+        out = fit_out(scene)
+        work = out.with_name(out.stem + ".fit")
+        work.mkdir(exist_ok=True)
+        copy = work / "source.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True)
+        s = scene.ssgi
+        ui_jobs.fit(scene, str(copy), str(out), views=int(s.fit_views), minutes=float(s.fit_minutes),
+                    target_psnr=float(s.fit_target_psnr) or None).start()
+        return f"Fitting to scene {scene.name!r} for {s.fit_minutes:g} min -> {out}"
 
 
 CLASSES = (SSGI_OT_fit_scene,)

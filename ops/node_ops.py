@@ -1,8 +1,9 @@
 """Operators of the SSGI node: add the node, Set up SSGI, Render SSGI Image/Animation (``bpy.ops.ssgi.render``).
 
 ``bpy.ops.ssgi.render(animation=False)`` runs the whole render synchronously (scripts, ``blender -b``);
-invoked from the UI it renders one frame per timer tick, shows progress, and Esc or the Cancel button stops
-between frames, keeping the frames already written.
+invoked from the UI it renders one frame per timer tick (the main-thread job ``ui_jobs.render``, ops.JobSteps),
+shows progress, and Esc or the Cancel button (``ssgi.cancel_job``, job "render") stops between frames,
+keeping the frames already written.
 """
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ from ..model import channels as ch
 from ..model.errors import UserError
 from ..ssgi_addon.blender import node as ssgi_node
 from ..ssgi_addon.pipeline import render as ssgi_render
-from . import TimerSteps, cancel_state
+from ..ssgi_addon.runtime import ui_jobs
+from . import JobSteps
 
 
 def _compositor_tree(context):
@@ -82,7 +84,7 @@ class SSGI_OT_setup(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class SSGI_OT_render(TimerSteps, bpy.types.Operator):
+class SSGI_OT_render(JobSteps, bpy.types.Operator):
     """Render with SSGI: EEVEE passes -> predicted GI -> your compositor -> the output path"""
     bl_idname = "ssgi.render"
     bl_label = "Render SSGI"
@@ -100,9 +102,6 @@ class SSGI_OT_render(TimerSteps, bpy.types.Operator):
     samples: bpy.props.IntProperty(name="Samples", default=0, min=0,
                                    description="EEVEE samples for the passes (0: the scene's)")
 
-    _session = None
-    _iter = None
-
     def _frames(self, scene):
         if not self.animation and self.frame_start < 0:
             return [scene.frame_current]
@@ -112,93 +111,23 @@ class SSGI_OT_render(TimerSteps, bpy.types.Operator):
             raise UserError(f"frame range {a}-{b} runs backwards")
         return list(range(a, b + 1, max(1, scene.frame_step)))
 
-    def _session_for(self, context):
+    def make_job(self, context):
         scene = context.scene
-        return ssgi_render.RenderSession(scene, self._frames(scene), model=self.model or None,
-                                         out=self.filepath or None, write=self.write_still,
-                                         samples=self.samples or None)
+        return ui_jobs.render(scene, self._frames(scene), model=self.model or None, out=self.filepath or None,
+                              write=self.write_still, samples=self.samples or None)
 
-    def execute(self, context):
-        try:
-            session = self._session_for(context)
-            _start_state(len(session.frames))
-            summary = session.run(should_cancel=lambda: ssgi_render.STATE.get("cancel", False))
-        except UserError as e:
-            ssgi_render.STATE.update(status="error", message=str(e))
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        _end_state(session)
-        self.report({"INFO"}, _summary_text(summary))
-        return {"FINISHED"}
+    def summary_text(self, summary: dict) -> str:
+        n = len(summary["frames"])
+        what = "cancelled after" if summary["cancelled"] else "rendered"
+        files = summary["files"]
+        return f"SSGI {what} {n} frame(s)" + (f"; last: {files[-1]}" if files else "")
 
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        try:
-            self._session = self._session_for(context)
-        except UserError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        _start_state(len(self._session.frames))
-        self._iter = self._session.iter_frames(lambda: ssgi_render.STATE.get("cancel", False))
-        return self.start_steps(context, len(self._session.frames))
-
-    # TimerSteps: one frame per timer tick
-    def step_work(self, context):
-        n = len(self._session.results)
-        try:
-            info = next(self._iter)
-        except StopIteration:
-            return False, n
-        n = len(self._session.results)
-        ssgi_render.STATE.update(done=n, progress=n / max(1, len(self._session.frames)),
-                                 message=f"frame {info['frame']} done")
-        return True, n
-
-    def stop_request(self):
-        ssgi_render.STATE["cancel"] = True
-
-    def steps_finished(self, context):
-        _end_state(self._session)
-        self.report({"INFO"}, _summary_text(self._session.summary()))
-        if not self._session.cancelled:
-            with _suppress():
+    def job_finished(self, context, job):
+        if job.result and not job.result["cancelled"]:
+            try:
                 bpy.ops.render.view_show("INVOKE_DEFAULT")
-
-    def steps_failed(self, context, message):
-        _end_state(self._session)
-        ssgi_render.STATE.update(status="error", message=message)
-
-
-def _suppress():
-    import contextlib
-    return contextlib.suppress(Exception)
-
-
-def _start_state(total: int) -> None:
-    ssgi_render.STATE.update(status="running", message="", progress=0.0, done=0, total=total, cancel=False)
-
-
-def _end_state(session) -> None:
-    ssgi_render.STATE.update(status="cancelled" if session.cancelled else "done", progress=1.0,
-                             done=len(session.results), cancel=False,
-                             message=(session.results[-1].get("path", "") if session.results else ""))
-
-
-def _summary_text(summary: dict) -> str:
-    n = len(summary["frames"])
-    what = "cancelled after" if summary["cancelled"] else "rendered"
-    files = summary["files"]
-    return f"SSGI {what} {n} frame(s)" + (f"; last: {files[-1]}" if files else "")
-
-
-class SSGI_OT_render_cancel(bpy.types.Operator):
-    """Stop the SSGI render after the current frame; frames already written are kept"""
-    bl_idname = "ssgi.render_cancel"
-    bl_label = "Cancel SSGI Render"
-
-    def execute(self, context):
-        return cancel_state(self, ssgi_render.STATE, "SSGI render")
+            except Exception:  # no window to show it in
+                pass
 
 
 def draw_add_menu(self, context):
@@ -215,7 +144,7 @@ def draw_render_menu(self, context):
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Animation", icon="RENDER_ANIMATION").animation = True
 
 
-CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_render, SSGI_OT_render_cancel)
+CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_render)
 _MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu), ("TOPBAR_MT_render", draw_render_menu))
 
 

@@ -1,6 +1,6 @@
 """Operator: Report. Thin: checks the settings, then runs ``cli.py report`` in a background process
-(ssgi_addon/report_cli.py ``command`` / ``start_job``); the Report panel draws its progress. Cancel is the
-shared ``ssgi.cancel_job`` (job "report")."""
+(runtime/ui_jobs.py ``report``); the Report panel draws its progress. Cancel is ``ssgi.cancel_job`` (job
+"report")."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,9 +8,9 @@ from pathlib import Path
 import bpy
 
 from ..model.errors import UserError
-from ..ssgi_addon.runtime import jobs
 from ..ssgi_addon.blender import node
-from ..ssgi_addon.commands import report as report_cli
+from ..ssgi_addon.runtime import ui_jobs
+from . import StartsJob
 
 
 def report_models(scene) -> list[Path]:
@@ -48,31 +48,20 @@ def check(scene) -> tuple[Path, list[Path], Path]:
     return data, models, out
 
 
-class SSGI_OT_report(bpy.types.Operator):
+class SSGI_OT_report(StartsJob, bpy.types.Operator):
     """Render the dataset's validation scenes with every method (EEVEE, the models, Cycles at each sample count)
     and write the speed-against-error report (report.md, pareto.png, examples.png) in the background"""
     bl_idname = "ssgi.report"
     bl_label = "Report"
+    job_name = ui_jobs.REPORT
 
     options: bpy.props.StringProperty(name="Options", default="",
                                       description="More `cli.py report` options, e.g. --spp 1,2,4 --temporal-frames 0")
 
-    @classmethod
-    def poll(cls, context):
-        job = jobs.get(report_cli.JOB)
-        return context.scene is not None and (job is None or job.done)
-
-    def execute(self, context):
-        try:
-            data, models, out = check(context.scene)
-            cmd = report_cli.command(data, models, out, context.scene.ssgi.report_max_scenes, self.options)
-            report_cli.start_job(cmd, out)
-        except (UserError, RuntimeError) as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        jobs.ensure_timer()
-        self.report({"INFO"}, f"Report on {len(models)} model(s) -> {out}")
-        return {"FINISHED"}
+    def start_job(self, context):
+        data, models, out = check(context.scene)
+        ui_jobs.report(data, models, out, context.scene.ssgi.report_max_scenes, self.options).start()
+        return f"Report on {len(models)} model(s) -> {out}"
 
 
 CLASSES = (SSGI_OT_report,)

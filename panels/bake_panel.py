@@ -4,29 +4,25 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon.pipeline import bake
-from . import SSGISubPanel, draw_error, draw_job, job_running
+from ..ssgi_addon.runtime import ui_jobs
+from . import JobPanel
 
 
-class SSGI_PT_bake(SSGISubPanel, bpy.types.Panel):
+class SSGI_PT_bake(JobPanel, bpy.types.Panel):
     bl_label = "Dataset"
     bl_idname = "SSGI_PT_bake"
+    job_name = ui_jobs.BAKE
+    start_op = "ssgi.bake_dataset"
+    start_icon = "RENDER_STILL"
 
-    def draw(self, context):
-        layout = self.layout
-        s = getattr(context.scene, "ssgi", None)
-        if s is None:
-            return
-        st = bake.STATE
-        running = job_running(st)
+    @staticmethod
+    def job_lines(state) -> list[str]:
+        return [state.get("detail", "")[:120]]
 
-        row = layout.row(align=True)
-        row.enabled = not running
+    def draw_settings(self, col, s):
+        row = col.row(align=True)
         row.prop(s, "room_seed")
         row.operator("ssgi.randomize_room", icon="FILE_REFRESH").seed = s.room_seed
-
-        col = layout.column()
-        col.enabled = not running
         col.prop(s, "dataset_dir")
         row = col.row(align=True)
         row.prop(s, "bake_count")
@@ -40,13 +36,11 @@ class SSGI_PT_bake(SSGISubPanel, bpy.types.Panel):
         row.prop(s, "bake_ref_target_db")
         col.prop(s, "bake_denoise")
 
-        if draw_job(layout, st, bake.status_text, "ssgi.bake_cancel", lines=lambda st: [st.get("message", "")[:120]]):
-            return
-        layout.operator("ssgi.bake_dataset", icon="RENDER_STILL")
-        status = st.get("status")
-        if not draw_error(layout, st) and status in ("done", "cancelled"):
-            layout.label(text=f"{status.capitalize()}: {st.get('message', '')}"[:120],
-                         icon="CHECKMARK" if status == "done" else "INFO")
+    def draw_outcome(self, layout, job):
+        r, status = job.result, job.state["status"]
+        if r and status in ("done", "cancelled"):
+            layout.label(text=f"{status.capitalize()}: {r['baked']} baked, {r['skipped']} already there -> "
+                              f"{r['out']}"[:120], icon="CHECKMARK" if status == "done" else "INFO")
 
 
 CLASSES = (SSGI_PT_bake,)

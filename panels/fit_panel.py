@@ -4,40 +4,29 @@ from __future__ import annotations
 
 import bpy
 
-from ..ssgi_addon.pipeline import fit as sfit
-from ..ssgi_addon.runtime import jobs
-from . import SSGISubPanel, draw_error, draw_job, job_running
+from ..ssgi_addon.runtime import ui_jobs
+from . import JobPanel
 
 
-class SSGI_PT_fit(SSGISubPanel, bpy.types.Panel):
+class SSGI_PT_fit(JobPanel, bpy.types.Panel):
     bl_label = "Fit to Scene"
     bl_idname = "SSGI_PT_fit"
+    job_name = ui_jobs.FIT
+    start_op = "ssgi.fit_scene"
+    text_limit = 120
+    cancelled_text = "Cancelled; no model written"
 
-    def draw(self, context):
-        layout = self.layout
-        s = getattr(context.scene, "ssgi", None)
-        if s is None:
-            return
-        job = jobs.get(sfit.JOB)
-        running = job_running(job)
-        col = layout.column()
-        col.enabled = not running
+    def draw_settings(self, col, s):
         col.prop(s, "fit_out")
         row = col.row()
         row.prop(s, "fit_views")
         row.prop(s, "fit_minutes")
         col.prop(s, "fit_target_psnr")
-        if draw_job(layout, job, sfit.status_text, "ssgi.cancel_job", job_name=sfit.JOB, cancel_text="Cancel", limit=120):
-            return
-        layout.operator("ssgi.fit_scene", icon="PLAY")
-        if job is not None and not draw_error(layout, job):
-            st = job.state.get("status")
-            if st == "cancelled":
-                layout.label(text="Cancelled; no model written", icon="INFO")
-            elif st == "done" and job.result:
-                layout.label(text=f"Inputs: {', '.join(job.result.get('inputs') or [])}", icon="CHECKMARK")
-                for part in str(job.result.get("verdict", "")).split(": ", 1):
-                    layout.label(text=part[:120])
+
+    def draw_result(self, layout, result):
+        layout.label(text=f"Inputs: {', '.join(result.get('inputs') or [])}", icon="CHECKMARK")
+        for part in str(result.get("verdict", "")).split(": ", 1):
+            layout.label(text=part[:120])
 
 
 CLASSES = (SSGI_PT_fit,)

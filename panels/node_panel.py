@@ -5,8 +5,8 @@ from __future__ import annotations
 import bpy
 
 from ..ssgi_addon.blender import node as ssgi_node
-from ..ssgi_addon.pipeline import render as ssgi_render
-from . import RenderPropertiesPanel
+from ..ssgi_addon.runtime import jobs, ui_jobs
+from . import RenderPropertiesPanel, draw_error, draw_job
 
 
 def _draw(layout, context):
@@ -36,14 +36,12 @@ def _draw(layout, context):
     row = layout.row(align=True)
     row.operator("ssgi.render", text="Render SSGI Image", icon="RENDER_STILL").animation = False
     row.operator("ssgi.render", text="Animation", icon="RENDER_ANIMATION").animation = True
-    s = ssgi_render.STATE
-    if s.get("status") == "running":
-        layout.label(text=f"Rendering {s.get('done', 0)}/{s.get('total', 0)} {s.get('message', '')}")
-        layout.operator("ssgi.render_cancel", icon="CANCEL")
-    elif s.get("status") == "error":
-        layout.label(text=s.get("message", "")[:120], icon="ERROR")
-    elif s.get("status") in ("done", "cancelled"):
-        layout.label(text=f"{s['status'].capitalize()}: {s.get('done', 0)} frame(s) {s.get('message', '')}"[:120])
+    job = jobs.get(ui_jobs.RENDER)
+    if draw_job(layout, job) or draw_error(layout, job) or job is None or not job.result:
+        return
+    r = job.result
+    layout.label(text=f"{job.state['status'].capitalize()}: {len(r['frames'])} frame(s) "
+                      f"{r['files'][-1] if r['files'] else ''}"[:120])
 
 
 class SSGI_PT_node(bpy.types.Panel):

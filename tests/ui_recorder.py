@@ -97,20 +97,28 @@ class RecordingLayout:
 
 
 class _Self:
-    """The ``self`` a draw function gets: ``layout`` is the recorder, everything else the real instance."""
+    """The ``self`` a draw function gets: ``layout`` is the recorder, everything else the real instance, or
+    without one the class's attributes and methods (as a real panel instance has them)."""
 
-    def __init__(self, layout, real=None):
+    def __init__(self, layout, real=None, cls=None):
         object.__setattr__(self, "layout", layout)
         object.__setattr__(self, "_real", real)
+        object.__setattr__(self, "_cls", cls)
 
     def __getattr__(self, k):
-        if self._real is None:
-            raise AttributeError(k)
-        return getattr(self._real, k)
+        if self._real is not None:
+            return getattr(self._real, k)
+        if self._cls is not None and hasattr(self._cls, k):
+            import inspect
+            raw = inspect.getattr_static(self._cls, k)
+            if inspect.isfunction(raw):  # a method: bound to this stand-in
+                return raw.__get__(self)
+            return getattr(self._cls, k)  # data, staticmethod, classmethod: as the class gives them
+        raise AttributeError(k)
 
 
 def draw(cls, real=None, context=None) -> RecordingLayout:
     """Run ``cls.draw`` with a RecordingLayout; ``real`` is the instance whose properties draw() shows."""
     layout = RecordingLayout()
-    cls.draw(_Self(layout, real), context or bpy.context)
+    cls.draw(_Self(layout, real, cls), context or bpy.context)
     return layout

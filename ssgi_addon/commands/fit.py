@@ -57,6 +57,7 @@ def run(args) -> dict:
 
 def _run(args) -> dict:
     from ..pipeline import fit as sfit
+    from ..runtime.progress import emit
 
     t0 = time.perf_counter()
     out = Path(args.out).expanduser().resolve()
@@ -70,8 +71,8 @@ def _run(args) -> dict:
     work = work_dir(out)
 
     def progress(d):
-        if args.progress:
-            print(sfit.PROGRESS_PREFIX + json.dumps(d, default=str), file=sys.stderr, flush=True)
+        if args.progress:  # the budget left is the job's time left
+            emit(**{"eta_s": d.get("left_s"), **d})
 
     bake_s = 0.0
     if args.data:

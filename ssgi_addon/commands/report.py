@@ -5,14 +5,14 @@
 
 Evaluates every method on the same scenes (ssgi_addon/report_run.py) and writes OUT/report.md,
 OUT/report.json, OUT/pareto.png and OUT/examples.png (model/report.py). While it runs, OUT/report.partial.json
-holds the numbers of the scenes done so far. Progress lines ``report: progress F eta Ss: ...`` go to stderr
-(the "Report" button reads them); ``--json`` prints the summary on stdout.
+holds the numbers of the scenes done so far. Progress lines ``report: progress F eta Ss: ...`` go to stderr, or
+with ``--progress`` the JSON lines of runtime/progress.py (the "Report" button reads them); ``--json`` prints
+the summary on stdout.
 """
 from __future__ import annotations
 
 import math
 import os
-import re
 import shlex
 import sys
 import time
@@ -76,6 +76,7 @@ def register_cli(sub) -> None:
                    help="torch threads for the predictions (default 1, the add-on's default)")
     p.add_argument("--no-fit-baseline", action="store_true",
                    help="with --data and no linear model among --models, do not fit one (closed form, seconds)")
+    p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)
 
 
@@ -169,7 +170,9 @@ def _run(args) -> dict:
            f"Cycles ladder {','.join(map(str, settings.spp))} spp")
 
     partial = out / "report.partial.json"
-    runner = rr.ReportRun(scenes, preds, settings, partial=lambda raw: rep.write_json(partial, raw))
+    from ..runtime import progress
+    runner = rr.ReportRun(scenes, preds, settings, partial=lambda raw: rep.write_json(partial, raw),
+                          progress=progress.emit if args.progress else None)
     raw, images = runner.run()
     keys = [(k, p, pr.kind) for k, (p, pr) in runner._model_keys.items()]
     raw["default_model_key"] = default_model_key(keys)
@@ -198,73 +201,3 @@ def _run(args) -> dict:
         res["default_speedup"] = None if not math.isfinite(e["speedup"]) else dict(
             speedup=e["speedup"], bound=e["bound"], winner=e["winner"])
     return res
-
-
-# --------------------------------------------------------------------------------------------- the UI's job
-
-JOB = "report"
-PROGRESS_RE = re.compile(r"report: progress ([0-9.]+) eta (\S+?)s: (.*)$")
-
-
-def command(data, models, out, max_scenes: int = 6, options: str = "") -> list[str]:
-    """The ``cli.py report`` command line the Report button runs in a separate process: the bpy module's
-    Python here, ``blender --background --python cli.py --`` in the Blender app (the user's file is never
-    touched: the report opens and builds its own scenes)."""
-    import bpy
-
-    from .. import root_package
-    root = Path(sys.modules[root_package()].__file__).resolve().parent
-    head = ([sys.executable, str(root / "cli.py")] if getattr(bpy.app, "module", False)
-            else [bpy.app.binary_path, "--background", "--python", str(root / "cli.py"), "--"])
-    try:
-        extra = shlex.split(options or "")
-    except ValueError as e:
-        raise UserError(f"report options {options!r}: {e}") from None
-    return head + ["report", "--data", str(data), "--models", *map(str, models), "--out", str(out),
-                   "--max-scenes", str(int(max_scenes)), *extra]
-
-
-def start_job(cmd: list[str], out) -> "jobs.Job":
-    """Run ``cmd`` (``command(...)``) in a background job: its progress lines become ``job.state`` (progress,
-    eta_s, message); the result is the summary read back from OUT/report.json. Cancel ends the process."""
-    import json
-
-    from ..runtime import deps, jobs
-
-    out = Path(out)
-
-    def work(job):
-        errors: list[str] = []
-
-        def on_line(line: str) -> None:
-            m = PROGRESS_RE.search(line)
-            if m:
-                eta = float(m.group(2)) if m.group(2) not in ("nan", "inf") else None
-                job.report(progress=float(m.group(1)), eta_s=eta, message=m.group(3))
-            elif line.startswith("report: "):
-                job.report(message=line[len("report: "):])
-            elif "error:" in line:
-                errors.append(line)
-
-        job.report(message="starting: " + " ".join(cmd[-8:]))
-        code, tail = deps.run_pip(cmd, on_line=on_line, should_cancel=lambda: job.cancelled)
-        job.check_cancel()
-        if code != 0:
-            last = errors[-1] if errors else ([l for l in tail.splitlines() if l.strip()] or ["(no output)"])[-1]
-            raise UserError(f"cli.py report exited with status {code}: {last}")
-        raw = json.loads((out / "report.json").read_text())
-        res = dict(files=raw.get("files", {}), scenes=raw.get("scenes", []), run_s=raw.get("run_s"))
-        dk = raw.get("default_model_key")
-        if dk:
-            res["verdict"] = (raw.get("verdicts", {}).get(dk) or [""])[0]
-            res["default_model"] = raw["methods"][dk]["label"]
-        return res
-
-    return jobs.Job(JOB, work).start()
-
-
-def status_text(state: dict) -> str:
-    eta = state.get("eta_s")
-    t = f" (about {eta / 60:.0f} min left)" if eta is not None and eta >= 60 else (
-        f" ({eta:.0f} s left)" if eta is not None else "")
-    return f"{100 * float(state.get('progress', 0.0)):.0f}%{t}: {state.get('message', '')}"[:140]

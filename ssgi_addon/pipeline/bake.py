@@ -8,7 +8,6 @@ redoes the rest. ``--shard i/n`` bakes every n-th sample into a shard manifest t
 from __future__ import annotations
 
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -296,116 +295,6 @@ def bake(out, count: int = 10, seed: int = 0, size=DEFAULT_SIZE, ref_samples: in
     summary = {k: v for k, v in summary.items() if k != "event"}
     summary.setdefault("cancelled", False)
     return summary
-
-
-# --------------------------------------------------------------------------------------------- the UI
-
-# State of the UI's bake, drawn by the Bake panel and the status bar (main thread only).
-STATE: dict = {"status": "idle", "progress": 0.0, "done": 0, "todo": 0, "message": "", "cancel": False}
-
-
-def _abspath(p: str) -> str:
-    """The dataset folder setting as an absolute path; a relative one needs a saved .blend file."""
-    out = bpy.path.abspath(p) if p else ""
-    if not out or (p.startswith("//") and not bpy.data.filepath) or not os.path.isabs(out):
-        raise UserError(f"dataset folder {p!r}: save the .blend file first, or choose an absolute folder")
-    return out.rstrip("/\\") or "/"
-
-
-class BakeSession:
-    """The Bake Dataset operator's bake: ``iter_bake`` on Blender's main thread, one sample per ``step()``
-    (bpy is not thread-safe, so it cannot bake in a worker thread). Rooms are built in a scratch scene that
-    is removed at the end, so the user's scenes are never touched. ``cancel()`` stops before the next sample;
-    every sample written so far is complete and listed, so the same settings resume later."""
-
-    def __init__(self, out, count, seed, size, ref_samples, denoise, eevee_samples=DEFAULT_EEVEE_SAMPLES,
-                 ref_target_db=None):
-        self.out = str(out)
-        self.scene = bpy.data.scenes.new("SSGI Bake (temporary)")
-        self.summary: dict | None = None
-        try:
-            self._gen = iter_bake(out, count=count, seed=seed, size=size, ref_samples=ref_samples,
-                                  denoise=denoise, eevee_samples=eevee_samples, scene=self.scene,
-                                  ref_target_db=ref_target_db)
-            self.start = next(self._gen)  # checks the settings and the folder: errors come now
-        except BaseException:
-            self._remove_scene()
-            raise
-        self._t0 = time.perf_counter()
-        STATE.update(status="running", progress=0.0, done=0, todo=self.start["todo"], total=self.start["total"],
-                     skipped=self.start["skipped"], eta_s=None, message=f"baking into {self.out}", cancel=False)
-
-    @classmethod
-    def from_scene(cls, scene) -> "BakeSession":
-        s = scene.ssgi
-        # with Denoise ticked the panel greys the target out: the reference takes exactly Reference Samples
-        return cls(_abspath(s.dataset_dir), s.bake_count, s.bake_seed, (s.bake_width, s.bake_height),
-                   s.bake_ref_samples, s.bake_denoise, ref_target_db=0.0 if s.bake_denoise else s.bake_ref_target_db)
-
-    @property
-    def running(self) -> bool:
-        return self.summary is None
-
-    def cancel(self) -> None:
-        STATE["cancel"] = True
-
-    def step(self) -> bool:
-        """Bake the next sample; returns True while samples remain. Errors end the session and re-raise."""
-        if not self.running:
-            return False
-        if STATE.get("cancel"):
-            self._finish("cancelled")
-            return False
-        try:
-            ev = next(self._gen)
-        except BaseException as e:
-            self._finish("error", str(e) if isinstance(e, UserError) else f"{type(e).__name__}: {e}")
-            raise
-        if ev["event"] == "done":
-            self._finish("done")
-            return False
-        STATE.update(done=ev["done"], progress=ev["done"] / max(1, ev["todo"]), eta_s=ev["eta_s"],
-                     message=f"sample {ev['sample']} (EEVEE {ev['eevee_s']:.1f} s, Cycles {ev['cycles_s']:.1f} s, "
-                             f"{ev['ref_samples']} spp)")
-        return True
-
-    def run(self) -> dict:
-        while self.step():
-            pass
-        return self.summary
-
-    def _finish(self, status: str, message: str = "") -> None:
-        self._gen.close()
-        self._remove_scene()
-        done = int(STATE.get("done", 0))
-        self.summary = {"out": self.out, "baked": done, "skipped": self.start["skipped"],
-                        "total": self.start["total"], "status": status,
-                        "seconds": round(time.perf_counter() - self._t0, 2)}
-        STATE.update(status=status, cancel=False, eta_s=None,
-                     message=message or f"{done} baked, {self.start['skipped']} already there -> {self.out}")
-
-    def _remove_scene(self) -> None:
-        sc = self.scene
-        if sc is None or sc.name not in bpy.data.scenes:
-            return
-        room.clear_room(sc)  # its world too
-        bpy.data.scenes.remove(sc)
-        self.scene = None
-
-
-def status_text(state: dict) -> str:
-    txt = f"{state.get('done', 0)}/{state.get('todo', 0)} samples"
-    if state.get("eta_s") is not None:
-        txt += f" · ETA {state['eta_s'] / 60:.1f} min"
-    return txt
-
-
-def draw_status(self, context):
-    """Status-bar progress of a running bake (appended to STATUSBAR_HT_header)."""
-    if STATE.get("status") != "running":
-        return
-    self.layout.progress(factor=float(STATE.get("progress", 0.0)), type="BAR",
-                         text="SSGI bake: " + status_text(STATE))
 
 
 # --------------------------------------------------------------------------------------------- command line

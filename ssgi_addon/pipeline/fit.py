@@ -1,4 +1,4 @@
-"""Fit to Scene, the Blender side: the views of an artist's scene, their bake, and the background job.
+"""Fit to Scene, the Blender side: the views of an artist's scene and their bake.
 
     plan = make_views(scene, views=24, seed=0)        # jittered cameras added to the OPEN file (a copy of it)
     bpy.ops.wm.save_as_mainfile(filepath=work_blend, copy=True)
@@ -18,18 +18,12 @@ out: ``val`` cameras choose (best epoch, size, inputs), ``test`` cameras only ju
 own cameras are always training views: the point is to fit the shots the artist renders.
 
 The "Fit to Scene" operator runs ``cli.py fit`` in a separate process (EEVEE and Cycles renders of the bake
-must not block Blender's UI, and a GL abort there cannot take Blender down); a worker thread of a jobs.Job
-reads its progress lines (``PROGRESS_PREFIX`` + JSON on stderr) and Cancel terminates it. The thread never
-touches bpy; the main thread sets the scene's model when the job is done.
+must not block Blender's UI, and a GL abort there cannot take Blender down): runtime/ui_jobs.py ``fit``.
 """
 from __future__ import annotations
 
-import json
 import math
-import os
 import random
-import signal
-import subprocess
 import sys
 from pathlib import Path
 
@@ -38,9 +32,6 @@ from ...model.errors import UserError
 JITTER_FRACTION = 0.04  # of the mesh bounds' diagonal
 JITTER_DEG = 8.0
 VIEW_PREFIX = "ssgi.fit.view_"
-PROGRESS_PREFIX = "SSGI_FIT_PROGRESS "
-ROOT = Path(__file__).resolve().parents[2]  # the extension root (cli.py is there)
-JOB = "fit"
 
 
 # ------------------------------------------------------------------------------------------------- views
@@ -174,16 +165,6 @@ def default_size(scene, width: int = 240) -> tuple[int, int]:
 
 # ------------------------------------------------------------------------------------------------- bake
 
-def cli_command(*args: str) -> list[str]:
-    """The command line that runs ``cli.py ARGS`` the way this process runs: the bpy module's Python, or the
-    Blender binary in the background."""
-    import bpy
-    cli = str(ROOT / "cli.py")
-    if getattr(bpy.app, "module", True):
-        return [sys.executable, cli, *args]
-    return [bpy.app.binary_path, "--background", "--factory-startup", "--python", cli, "--", *args]
-
-
 # The views' references: 16 spp + OIDN, not the baker's default (raw, up to 4096 spp), to keep the whole fit
 # within its 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the
 # fitted models' error (25-35 dB).
@@ -192,38 +173,14 @@ FIT_REF_SAMPLES = 16
 
 def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None) -> None:
     """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
-    a child process (the baker resumes a half-done folder)."""
-    cmd = cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
-                      "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
+    a child process (the baker resumes a half-done folder). The baker stays in this process's group and dies
+    with it (runtime/launcher.py), so cancelling the fit ends the baker too."""
+    from ..runtime import launcher
+    cmd = launcher.cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
+                               "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
     cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_child_env(),
-                       preexec_fn=_die_with_parent)
-    if p.returncode != 0:
-        tail = "\n".join(l for l in p.stderr.splitlines() if "EGL" not in l)[-1500:]
-        raise UserError(f"baking the views failed (exit {p.returncode}): {tail.strip() or p.stdout[-500:]}")
-
-
-def _die_with_parent() -> None:
-    """In the baker's process: end it (SIGTERM) when the fit process dies, even by SIGKILL (Linux prctl
-    PR_SET_PDEATHSIG), so a killed fit leaves no baker running."""
-    try:
-        import ctypes
-        ctypes.CDLL(None).prctl(1, signal.SIGTERM)
-    except (OSError, AttributeError):
-        pass
-
-
-def _child_env() -> dict:
-    env = dict(os.environ)
-    try:
-        from ..runtime import deps
-        d = deps.deps_dir()
-        if d is not None and Path(d).is_dir():
-            env.setdefault("SSGI_DEPS_DIR", str(d))
-    except Exception:
-        pass
-    return env
+    launcher.run(cmd, env=launcher.cli_env(), new_group=False).check("baking the views")
 
 
 def _stderr(msg: str) -> None:
@@ -256,133 +213,3 @@ def split_views(data_dir, plan: dict) -> tuple[list[str], list[str], list[str]]:
     roles_ = plan["cameras"]
     return mfit.split_views(by_cam, test_cameras=[c for c, r in roles_.items() if r == "test"],
                             val_cameras=[c for c, r in roles_.items() if r == "val"])
-
-
-# ------------------------------------------------------------------------------------------------- the UI job
-
-def parse_progress(line: str) -> dict | None:
-    if not line.startswith(PROGRESS_PREFIX):
-        return None
-    try:
-        d = json.loads(line[len(PROGRESS_PREFIX):])
-    except ValueError:
-        return None
-    return d if isinstance(d, dict) else None
-
-
-def start(scene, blend_copy: str, out: str, views: int, minutes: float, target_psnr: float | None,
-          threads: int | None = None, extra_args=()):
-    """Start ``cli.py fit`` on ``blend_copy`` (a saved copy of the open file) in a child process, watched by a
-    jobs.Job; returns the job. Cancel terminates the child (nothing is written: the model appears only
-    when the fit completes)."""
-    from ..runtime import jobs
-
-    args = ["fit", "--blend", str(blend_copy), "--scene", scene.name, "--out", str(out), "--views", str(views),
-            "--minutes", f"{minutes:g}", "--progress", "--json", *extra_args]
-    if target_psnr:
-        args += ["--target-psnr", f"{target_psnr:g}"]
-    if threads:
-        args += ["--threads", str(threads)]
-    cmd = cli_command(*args)
-    env = _child_env()
-    scene_name = scene.name
-
-    def work(job):
-        import queue
-        import threading
-
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                                start_new_session=True)
-        job.proc = proc  # its own process group: Cancel ends it and the baker it starts
-        lines: queue.Queue = queue.Queue()
-        out_chunks: list[str] = []
-        readers = [threading.Thread(target=lambda: out_chunks.append(proc.stdout.read()), daemon=True),
-                   threading.Thread(target=lambda: [lines.put(l) for l in proc.stderr] and None, daemon=True)]
-        for t in readers:
-            t.start()
-        tail: list[str] = []
-        phases: list[str] = []  # every phase seen, in order (job.state keeps only the latest report)
-        while True:
-            if job.cancelled:
-                _terminate(proc)
-                job.check_cancel()
-            try:
-                line = lines.get(timeout=0.2)
-            except queue.Empty:
-                if proc.poll() is not None and not readers[1].is_alive() and lines.empty():
-                    break
-                continue
-            d = parse_progress(line.rstrip("\n"))
-            if d is not None:
-                if d.get("phase") and (not phases or phases[-1] != d["phase"]):
-                    phases.append(d["phase"])
-                job.report(phases=list(phases), **d)
-            elif line.strip() and "EGL" not in line:
-                tail.append(line.rstrip())
-                del tail[:-20]
-                job.report(log=line.rstrip())
-        proc.wait()
-        readers[0].join(timeout=5)
-        if proc.returncode != 0:
-            raise UserError("\n".join(tail)[-600:] or f"fit exited with status {proc.returncode}")
-        text = "".join(out_chunks)
-        try:
-            return json.loads(text[text.index("{"):])
-        except ValueError:
-            return {"model": out}
-
-    def done(job):
-        import bpy
-        sc = bpy.data.scenes.get(scene_name)
-        if sc is not None and job.result and Path(job.result.get("model") or "").is_file():
-            sc.ssgi.model_path = str(job.result["model"])
-
-    return jobs.Job(JOB, work, on_done=done).start()
-
-
-def group_members(pgid: int) -> list[int]:
-    """Live (not zombie) processes of process group ``pgid`` (Linux /proc; empty elsewhere)."""
-    out = []
-    for d in Path("/proc").glob("[0-9]*"):
-        try:
-            stat = (d / "stat").read_text()
-        except OSError:
-            continue
-        fields = stat[stat.rindex(")") + 2:].split()  # state ppid pgrp ...
-        if len(fields) > 2 and int(fields[2]) == pgid and fields[0] != "Z":
-            out.append(int(d.name))
-    return out
-
-
-def _terminate(proc) -> None:
-    """End the fit's child process and everything it started (the baker) through its process group: SIGTERM,
-    then SIGKILL for what is still there after 10 s, until no member of the group is left."""
-    import time
-    pgid = proc.pid
-    try:
-        os.killpg(pgid, signal.SIGTERM)
-    except (ProcessLookupError, PermissionError):
-        pass
-    try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        pass
-    end = time.time() + 10
-    while time.time() < end:
-        if proc.poll() is not None and not group_members(pgid):
-            break
-        try:
-            os.killpg(pgid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
-        time.sleep(0.1)
-    proc.wait()
-
-
-def status_text(state: dict) -> str:
-    parts = [str(state.get("phase") or state.get("status") or "")]
-    if state.get("message"):
-        parts.append(str(state["message"]))
-    if state.get("left_s") is not None:
-        parts.append(f"{state['left_s'] / 60:.1f} min left")
-    return " · ".join(p for p in parts if p)

@@ -40,8 +40,6 @@ from ..blender import node as ssgi_node
 
 # how many SSGI renders are running right now (the render_pre handler leaves those alone)
 _ACTIVE = 0
-# progress of the UI's render, drawn by the panels
-STATE: dict = {"status": "idle", "message": "", "progress": 0.0, "done": 0, "total": 0}
 _PREDICTORS: dict = {}
 WORLD_DEPTH_FRACTION = 0.999  # depth >= this * clip_end: no geometry (EEVEE writes clip_end there)
 

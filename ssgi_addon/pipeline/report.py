@@ -285,8 +285,10 @@ def render_eevee_gi(scene, preset: str, samples: int) -> np.ndarray:
 
 
 class ReportRun:
-    def __init__(self, scenes: list[EvalScene], models: list, settings: Settings, log=log, partial=None):
-        """``models``: [(path, Predictor)]; ``partial(raw)``: called after each scene (save progress)."""
+    def __init__(self, scenes: list[EvalScene], models: list, settings: Settings, log=log, partial=None,
+                 progress=None):
+        """``models``: [(path, Predictor)]; ``partial(raw)``: called after each scene (save progress);
+        ``progress(progress=, eta_s=, message=)`` after each step (else a "progress" log line)."""
         if not scenes:
             raise UserError("no evaluation scene")
         self.scenes = scenes
@@ -294,6 +296,7 @@ class ReportRun:
         self.s = settings
         self.log = log
         self.partial = partial
+        self.progress = progress
         self.raw: dict = dict(methods={}, scenes=[], notes=[])
         self.images: dict = {}
         self._warm = False
@@ -308,7 +311,10 @@ class ReportRun:
         el = time.perf_counter() - self._t0
         frac = min(1.0, self._steps / max(1, self.total_steps))
         eta = el / frac * (1 - frac) if frac > 0 else math.nan
-        self.log(f"progress {frac:.3f} eta {eta:.0f}s: {what}")
+        if self.progress is not None:
+            self.progress(progress=frac, eta_s=eta if math.isfinite(eta) else None, message=what)
+        else:
+            self.log(f"progress {frac:.3f} eta {eta:.0f}s: {what}")
 
     def _method(self, key: str, **info) -> dict:
         m = self.raw["methods"].setdefault(key, dict(per_scene={}, **info))

@@ -10,7 +10,6 @@ from __future__ import annotations
 import importlib
 import os
 import shlex
-import subprocess
 import sys
 from pathlib import Path
 
@@ -98,17 +97,26 @@ def pip_command(target: Path, requirement: str = TORCH_REQUIREMENT, python: str 
             "--upgrade", "--target", str(target), *extra_args, *reqs]
 
 
-def run_pip(cmd: list[str], on_line=None, should_cancel=None) -> tuple[int, str]:
-    """Run pip, streaming its output lines to ``on_line``; returns (exit code, last lines)."""
-    env = dict(os.environ, PYTHONNOUSERSITE="1")
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-    tail: list[str] = []
-    for line in proc.stdout:
-        line = line.rstrip()
-        tail = (tail + [line])[-20:]
-        if on_line:
-            on_line(line)
-        if should_cancel and should_cancel():
-            proc.terminate()
-            break
-    return proc.wait(), "\n".join(tail)
+def start_install(target=None, requirement: str = TORCH_REQUIREMENT, extra_args: str = ""):
+    """Start the pip install of ``requirement`` (torch) into the extension's folder as a child job ("deps",
+    runtime/launcher.py: cancel ends pip and whatever it started). Its output lines are the job's message; on
+    success the folder goes first on sys.path and the torch status is checked again."""
+    from . import jobs
+    target = target or deps_dir(create=True)
+    if target is None:
+        from ...model.errors import UserError
+        raise UserError("not running as an installed extension: no user folder to install into")
+    cmd = pip_command(target, requirement, extra_args=extra_args)
+
+    def done(job) -> None:
+        if job.result is not None:
+            add_to_path(target)
+            ok, info = torch_status(refresh=True)
+            job.result["torch"] = info if ok else None
+            job.state["message"] = f"installed into {target}; torch {info}" if ok else f"installed, but {info}"
+
+    job = jobs.ChildJob("deps", cmd, env=dict(os.environ, PYTHONNOUSERSITE="1"), what="pip", merge_output=True,
+                        message_lines="", result=lambda _o: {"target": str(target)}, on_done=done,
+                        title="SSGI install")
+    job.state["message"] = "running: " + " ".join(cmd[2:])
+    return job.start()

@@ -1,9 +1,10 @@
 """The progress protocol between a child process and the job that watches it (bpy-free).
 
 A command run with ``--progress`` writes one line per report on stderr: ``SSGI_PROGRESS {json object}``.
-The object holds at least ``progress`` (0..1) and may hold ``phase``, ``message``, ``eta_s`` and anything
-else the stage reports. Every other stderr line is log text. ``emit`` writes such a line, ``parse`` reads
-one back (None for a log line).
+The object holds at least ``progress`` (0..1) and may hold ``phase``, ``message``, ``eta_s`` (seconds left) and
+anything else the stage reports: the keys a job's state shares (runtime/jobs.py). Every other stderr line is
+log text. ``emit`` writes such a line, ``parse`` reads one back (None for a log line); runtime/launcher.py
+reads them from a child.
 """
 from __future__ import annotations
 

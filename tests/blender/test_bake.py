@@ -414,7 +414,7 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     import json, bpy
     import ssgi
     from ssgi.model.dataset import folder as ds
-    from ssgi.ssgi_addon.pipeline import bake
+    from ssgi.ssgi_addon.runtime import jobs, ui_jobs
     from ssgi.ssgi_addon.blender import room
     from tests import ui_recorder
     from ssgi.panels import bake_panel
@@ -436,24 +436,24 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     s.dataset_dir, s.bake_count, s.bake_seed, s.bake_width, s.bake_height, s.bake_ref_samples = \\
         {str(d)!r}, 3, 3, 48, 27, 2
     # the operator's modal path, driven by hand: one sample per step, then Cancel
-    sess = bake.BakeSession.from_scene(user)
+    job = ui_jobs.bake(user).start()
     scenes_during = len(bpy.data.scenes)
-    assert sess.step() is True
-    out["state_after_step"] = {{k: bake.STATE[k] for k in ("status", "done", "todo", "progress")}}
+    assert job.step() is True
+    out["state_after_step"] = {{k: job.state[k] for k in ("status", "done", "todo", "progress")}}
     rec = ui_recorder.draw(bake_panel.SSGI_PT_bake)
     out["panel_running"] = [e["kw"].get("text", "") for e in rec.log if e["fn"] in ("label", "progress")]
     out["panel_props"] = rec.props()
     out["ops_running"] = [o for o, _ in rec.operators()]
-    assert bpy.ops.ssgi.bake_cancel() == {{"FINISHED"}}
-    assert sess.step() is False
-    out["after_cancel"] = [sess.summary["status"], sess.summary["baked"], len(bpy.data.scenes), scenes_during,
+    assert bpy.ops.ssgi.cancel_job(job="bake") == {{"FINISHED"}}
+    assert job.step() is False
+    out["after_cancel"] = [job.result["status"], job.result["baked"], len(bpy.data.scenes), scenes_during,
                            ds.verify({str(d)!r}), sorted(ds.open_folder({str(d)!r})["samples"])]
     out["panel_cancelled"] = ui_recorder.draw(bake_panel.SSGI_PT_bake).labels()
     # Bake Dataset again (execute, as a script runs it): resumes and finishes
     with bpy.context.temp_override(scene=user):  # no window: say which scene's settings to use
         assert bpy.ops.ssgi.bake_dataset() == {{"FINISHED"}}
     out["ui_target"] = ds.open_folder({str(d)!r})["settings"]["ref_target_db"]
-    out["after_resume"] = [bake.STATE["status"], ds.verify({str(d)!r}), sorted(ds.open_folder({str(d)!r})["samples"]),
+    out["after_resume"] = [jobs.get("bake").state["status"], ds.verify({str(d)!r}), sorted(ds.open_folder({str(d)!r})["samples"]),
                            len(bpy.data.scenes), sorted(o.name for o in user.objects) == user_objects,
                            [w.name for w in bpy.data.worlds if w.get("ssgi_room") and w.users == 0]]
     # a relative folder in an unsaved file, or another bake's folder: reported, nothing baked or changed
@@ -477,7 +477,7 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     assert r["room_scene"] == ["SSGI Room 5", "ssgi.camera", 2, 5]
     assert r["rebuilt_in_place"] == ["SSGI Room 6", 2, True]
     assert r["state_after_step"] == {"status": "running", "done": 1, "todo": 3, "progress": pytest.approx(1 / 3)}
-    assert any("1/3 samples" in t for t in r["panel_running"]) and "ssgi.bake_cancel" in r["ops_running"]
+    assert any("1/3 samples" in t for t in r["panel_running"]) and "ssgi.cancel_job" in r["ops_running"]
     assert {"bake_ref_samples", "bake_ref_target_db", "bake_denoise"} <= set(r["panel_props"])
     assert r["ui_target"] == 41.0  # the panel's default target, as the command line's
     status, baked_n, n_scenes, n_during, problems, names = r["after_cancel"]

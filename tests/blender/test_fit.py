@@ -212,7 +212,7 @@ r["running_ops"] = [o[0] for o in ui_recorder.draw(SSGI_PT_fit).operators()]
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
 r["cancel_status"] = job.state["status"]
-from ssgi.ssgi_addon.pipeline.fit import group_members
+from ssgi.ssgi_addon.runtime.launcher import group_members
 r["group_alive"] = group_members(job.proc.pid)
 r["model_after_cancel"] = os.path.exists({str(out)!r})
 assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}

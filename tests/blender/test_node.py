@@ -262,6 +262,39 @@ def test_operator_renders_and_writes_where_asked(rendered):
     np.testing.assert_allclose(op, inv, atol=1e-4)
 
 
+def test_render_job_steps_frame_by_frame_and_the_one_cancel_stops_it(room, tmp_path):
+    """The Render SSGI operator's main-thread job (ui_jobs.render), stepped by hand as its modal timer would:
+    one frame per step; ssgi.cancel_job stops it before the next frame, keeping the frame written; the panel
+    draws the running job with the one Cancel button, then how it ended."""
+    res = tmp_path / "job.json"
+    run_py(f'''
+import json, bpy, ssgi
+from ssgi.ssgi_addon.runtime import jobs, ui_jobs
+from ssgi.panels import node_panel
+from tests import ui_recorder
+ssgi.register()
+bpy.ops.wm.open_mainfile(filepath={str(room["blend"])!r})
+sc = bpy.context.scene
+job = ui_jobs.render(sc, [1, 2, 3], out={str(tmp_path / "j_####")!r}).start()
+r = {{"after_start": [job.state[k] for k in ("status", "done", "todo")], "step1": job.step()}}
+rec = ui_recorder.draw(node_panel.SSGI_PT_render)
+r["running_ops"] = [o for o, _ in rec.operators()]
+r["running_text"] = [e["kw"].get("text") for e in rec.log if e["fn"] == "progress"]
+r["cancel"] = sorted(bpy.ops.ssgi.cancel_job(job="render"))
+r["step2"] = job.step()
+r["state"] = [job.state["status"], job.result["cancelled"], job.result["frames"]]
+r["labels"] = ui_recorder.draw(node_panel.SSGI_PT_render).labels()
+json.dump(r, open({str(res)!r}, "w"))
+''', timeout=300)
+    r = json.loads(res.read_text())
+    assert r["after_start"] == ["running", 0, 3] and r["step1"] is True
+    assert "ssgi.cancel_job" in r["running_ops"] and "1/3" in r["running_text"][0]
+    assert r["cancel"] == ["FINISHED"] and r["step2"] is False
+    assert r["state"] == ["cancelled", True, [1]]
+    assert sorted(p.name for p in tmp_path.glob("j_*")) == ["j_0001.exr"]
+    assert any(l.startswith("Cancelled: 1 frame(s)") for l in r["labels"]), r["labels"]
+
+
 def test_blend_reopens_and_renders_without_the_extension(room, rendered):
     """The saved file on a Blender where the extension is not enabled: the SSGI node is a plain group, the
     render does not crash, and it shows the placeholder (pixels of the prediction are not saved)."""

@@ -47,7 +47,6 @@ from tests import ui_recorder
 bpy.ops.wm.read_factory_settings(use_empty=True)
 ssgi.register()
 from ssgi.ssgi_addon.runtime import jobs
-from ssgi.ssgi_addon.pipeline import training
 from ssgi.panels.train_panel import SSGI_PT_train
 sc = bpy.context.scene
 sc.ssgi.dataset_dir, sc.ssgi.train_out, sc.ssgi.train_variant = sys.argv[1], sys.argv[2], "unet_s"
@@ -68,8 +67,12 @@ while job.pump():
     if drawn is None and job.state.get("epoch", 0) >= 1:
         rec = ui_recorder.draw(SSGI_PT_train)
         drawn = {"labels": rec.labels(), "operators": rec.operators(), "texts": [e["kw"].get("text") for e in rec.log if e["fn"] == "progress"]}
+        import types
+        from ssgi.panels import status_bar
+        bar = ui_recorder.draw(types.SimpleNamespace(draw=status_bar.draw_status))
+        drawn["status_bar"] = [e["kw"].get("text") for e in bar.log if e["fn"] == "progress"]
         if sys.argv[4] == "cancel":
-            bpy.ops.ssgi.train_cancel()
+            bpy.ops.ssgi.cancel_job(job="train")
             rep["cancel_asked_at_step"] = job.state["step"]
     time.sleep(0.02)
 rep["pump_rate"] = pumps / max(time.time() - t0, 1e-6)
@@ -95,8 +98,10 @@ def test_blender_train_operator_runs_in_background_and_panel_shows_progress(tmp_
     assert rep["op"] == ["FINISHED"] and rep["poll_while_running"] is False
     assert rep["state"]["status"] == "done" and rep["result"]["status"] == "done"
     assert rep["pump_rate"] > 5  # the main thread kept running while the worker trained
-    assert rep["drawn"]["operators"] == [["ssgi.train_cancel", True]]
+    assert rep["drawn"]["operators"] == [["ssgi.cancel_job", True]]
     assert rep["drawn"]["texts"] and "Epoch" in rep["drawn"]["texts"][0] and "val" in rep["drawn"]["texts"][0]
+    # the one status-bar drawer shows the running training, with the panel's line
+    assert rep["drawn"]["status_bar"] == ["SSGI training: " + rep["drawn"]["texts"][0]]
     assert rep["model_path"] == str(out) and checkpoint.load(out)["arch"]["variant"] == "unet_s"
     assert ["ssgi.train", True] in rep["after"]["operators"]
     assert any(l.startswith("Done after epoch") and "dB" in l for l in rep["after"]["labels"])
