@@ -14,7 +14,7 @@ import pytest
 from ssgi.model.errors import UserError
 from ssgi.ssgi_addon.runtime import jobs, launcher, progress
 
-from .conftest import ROOT
+from ..conftest import ROOT
 
 PY = sys.executable
 
