@@ -244,8 +244,42 @@ def test_fit_cancel_writes_nothing(views, tmp_path):
     assert res["status"] == "cancelled" and not out.exists() and not fit.report_paths(out)[0].exists()
 
 
-def test_view_counts_and_roles():
+def test_fit_stage_config_refuses_bad_settings_before_any_work(tmp_path):
+    from ssgi.ssgi_addon.pipeline.fit import FitSceneConfig
+    for kw, msg in ((dict(out=str(tmp_path / "m.txt"), data=str(tmp_path)), "must end in .pt"),
+                    (dict(out=str(tmp_path / "no" / "m.pt"), data=str(tmp_path)), "does not exist"),
+                    (dict(out=str(tmp_path / "m.pt")), "--blend FILE"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), views=3), "at least 4 views"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), init=str(tmp_path / "x.pt")), "no such model"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet"]]), "--ladder")):
+        with pytest.raises(UserError, match=msg):
+            FitSceneConfig(**kw).check()
+    assert not list(tmp_path.iterdir())
+
+
+def test_fit_stage_runs_from_python_with_a_config(views, generic, tmp_path):
+    """The fit stage without argparse: a FitSceneConfig on views baked before (roles derived from their
+    cameras) -> pipeline.fit.run -> the summary; the held-out views are those of the derived plan's cameras."""
+    from ssgi.ssgi_addon.blender import views as fviews
     from ssgi.ssgi_addon.pipeline import fit as sfit
+    out = tmp_path / "stage.pt"
+    events = []
+    cfg = sfit.FitSceneConfig(out=str(out), data=str(views), minutes=0.25, init=str(generic), threads=1, crop=32,
+                              min_run_s=1.0, drop_tol=ABLATE_ALL, seed=1, command="test_fit_stage")
+    res = sfit.run(cfg, progress=events.append, log=lambda m: None)
+    assert res["status"] == "done" and out.is_file() and res["views"] == str(views) and res["bake_minutes"] == 0
+    assert res["init"] == str(generic) and events and events[-1]["phase"] == "done"
+    plan = fviews.derive_plan(views, seed=1)
+    cam = {k: str(v["camera"]) for k, v in json.loads((views / "manifest.json").read_text())["samples"].items()}
+    fit_info = checkpoint.load(out)["fit"]
+    for role in ("val", "test"):
+        assert sorted(fit_info["views"][role]) == sorted(k for k, c in cam.items() if plan["cameras"][c] == role)
+    rep = json.loads(fit.report_paths(out)[0].read_text())
+    assert rep["total_minutes"] == pytest.approx(res["total_minutes"]) and rep["bake_minutes"] == 0
+
+
+def test_view_counts_and_roles():
+    from ssgi.ssgi_addon.blender import views as sfit
     assert sfit.view_counts(24, 1, 1) == (1, 23)
     nf, nj = sfit.view_counts(24, 48, 1)
     assert nf == 3 and (1 + nj) * nf >= 24
@@ -332,7 +366,7 @@ for o in sc.objects:
                            role=o["ssgi_fit_role"])
 json.dump(dict(poses=poses, views=res, lens=cam.data.name), open({str(out)!r}, "w"))
 ''', timeout=120)
-    from ssgi.ssgi_addon.pipeline import fit as sfit
+    from ssgi.ssgi_addon.blender import views as sfit
     info = json.loads(out.read_text())
     plan = json.loads((work / "views_plan.json").read_text())
     assert len(info["views"]) == 3
@@ -351,7 +385,7 @@ def test_jittered_cameras_follow_their_animated_scene_camera(tmp_path):
     out = tmp_path / "follow.json"
     run_py(f'''
 import bpy, json, math
-from ssgi.ssgi_addon.pipeline import fit as sfit
+from ssgi.ssgi_addon.blender import views as sfit
 bpy.ops.wm.read_factory_settings(use_empty=True)
 sc = bpy.context.scene
 bpy.ops.mesh.primitive_plane_add(size=20, location=(0, 0, 0))

@@ -113,6 +113,23 @@ def test_pareto_front_and_closest_rung():
     assert rep.closest_rung([(1, 0.1), (2, 0.3), (4, 1.2)], 0.5)[0] == 2  # log scale: 0.5 is nearer 0.3 than 1.2
 
 
+def test_report_stage_config_refuses_bad_settings_before_any_work(tmp_path):
+    from ssgi.model.errors import UserError
+    from ssgi.ssgi_addon.pipeline.report import ReportConfig
+    m = tmp_path / "m.pt"
+    m.write_bytes(b"x")
+    for kw, msg in ((dict(models=[str(m)]), "--data DIR"),
+                    (dict(models=[str(tmp_path / "nope.pt")], data=str(tmp_path)), "nope.pt: no such file"),
+                    (dict(models=[str(m)], data=str(tmp_path / "nowhere")), "no such folder"),
+                    (dict(models=[str(m)], data=str(tmp_path), spp=(4, 2)), "ascending"),
+                    (dict(models=[str(m)], data=str(tmp_path), split="train"), "--split"),
+                    (dict(models=[str(m)], data=str(tmp_path), max_scenes=0), "--max-scenes"),
+                    (dict(models=[str(m)], data=str(tmp_path), sizes=()), "--no-scaling")):
+        with pytest.raises(UserError, match=msg):
+            ReportConfig(out=str(tmp_path / "out"), **kw).check()
+    assert not (tmp_path / "out").exists()
+
+
 # ------------------------------------------------------------------------------------------ end to end
 
 _ROOMS = r'''
@@ -216,7 +233,7 @@ def test_report_md_has_the_table_verdicts_and_settings(e2e):
 def test_dataset_split_follows_the_models_checkpoint(e2e):
     """The default evaluation scenes are the validation scenes a model records for this very dataset."""
     from ssgi.model.learn import data
-    from ssgi.ssgi_addon.pipeline import report as rr
+    from ssgi.ssgi_addon.pipeline import report_scenes as rr
     d = e2e["out"] / "data"
     sha = data.manifest_sha256(d)
     ck = {"dataset": {"manifest_sha256": sha, "split": {"val": ["room4"]}}}
