@@ -56,7 +56,8 @@ def bench(a, pkg) -> dict:
     room = import_module(f"{pkg.__name__}.ssgi_addon.blender.room")
     render = import_module(f"{pkg.__name__}.ssgi_addon.pipeline.render")
     passes = import_module(f"{pkg.__name__}.ssgi_addon.blender.passes")
-    node_ops = import_module(f"{pkg.__name__}.ops.node_ops")
+    compositor = import_module(f"{pkg.__name__}.ssgi_addon.blender.compositor")
+    scene_state = import_module(f"{pkg.__name__}.ssgi_addon.blender.scene_state")
 
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -81,7 +82,7 @@ def bench(a, pkg) -> dict:
     ims = scene.render.image_settings
     ims.file_format = "PNG"
     scene.render.filepath = str(out / "ssgi_####")
-    node_ops.setup_scene(scene, a.model)
+    compositor.setup_scene(scene, a.model)
     bpy.ops.wm.save_as_mainfile(filepath=str(out / "room.blend"))
 
     t0 = time.perf_counter()
@@ -96,7 +97,7 @@ def bench(a, pkg) -> dict:
         from skimage.io import imsave
         for info in session.results:
             scene.frame_set(info["frame"])
-            with render.preserved(scene):
+            with scene_state.preserved(scene):
                 t = time.perf_counter()
                 ref = passes.render_cycles(scene, a.cycles_samples, seed=0, denoise=True)["ref"]
                 info["t_cycles"] = time.perf_counter() - t

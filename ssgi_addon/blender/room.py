@@ -15,7 +15,7 @@ import random
 
 import bpy
 import bmesh
-from mathutils import Matrix, Vector
+from mathutils import Vector
 
 PREFIX = "ssgi."
 SHAPES = ("cube", "cone", "cylinder", "sphere", "monkey")

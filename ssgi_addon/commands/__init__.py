@@ -10,9 +10,9 @@ import sys
 
 def modules() -> tuple:
     """The command modules, in the order of ``cli.py --help``."""
-    from . import fit, info, render, report, train
+    from . import demo, fit, info, render, report, train
     from ..blender import room
-    from ..pipeline import bake, demo
+    from ..pipeline import bake
     return (info, room, bake, demo, train, render, fit, report)
 
 

@@ -28,7 +28,7 @@ def _run(args) -> dict:
     open_blend(args.blend)
     scene = pick_scene(blend, args.scene)
     if args.setup:
-        from ...ops.node_ops import setup_scene
+        from ..blender.compositor import setup_scene
         setup_scene(scene, args.model)
     frames = list(args.frames) if args.frames else [scene.frame_current]
     session = ssgi_render.RenderSession(scene, frames, model=args.model, out=args.out, samples=args.samples,
