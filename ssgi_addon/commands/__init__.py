@@ -10,10 +10,8 @@ import sys
 
 def modules() -> tuple:
     """The command modules, in the order of ``cli.py --help``."""
-    from . import demo, fit, info, render, report, train
-    from ..blender import room
-    from ..pipeline import bake
-    return (info, room, bake, demo, train, render, fit, report)
+    from . import bake, demo, fit, info, randomize, render, report, train
+    return (info, randomize, bake, demo, train, render, fit, report)
 
 
 def command_line() -> str:

@@ -100,6 +100,7 @@ def _bake_scenes(cfg: ReportConfig, out: Path):
     """``scenes``: bake the .blend files with the baker (bake --scenes: each scene camera at its current frame)
     into OUT/data (resumable), then evaluate every sample of it."""
     from . import bake
+    from ..blender.reference import DENOISED_REF_SAMPLES
     from .report_run import log
     from .report_scenes import dataset_scenes
 
@@ -107,9 +108,9 @@ def _bake_scenes(cfg: ReportConfig, out: Path):
     size = tuple(cfg.size) if cfg.size else bake.DEFAULT_SIZE
     t = time.perf_counter()
     log(f"baking {len(cfg.scenes)} .blend file(s) into {data} (cli.py bake --scenes)")
-    res = bake.bake(data, scenes=[str(p) for p in cfg.scenes], size=size,
-                    ref_samples=cfg.ref_samples or bake.DENOISED_REF_SAMPLES, denoise=True,
-                    progress=lambda done, total, info: log(f"bake {done}/{total}: {info}"))
+    res = bake.run(bake.BakeConfig(out=str(data), scenes=[str(p) for p in cfg.scenes], size=size,
+                                   ref_samples=cfg.ref_samples or DENOISED_REF_SAMPLES, denoise=True),
+                   progress=lambda info: log(f"bake {info['done']}/{info['todo']}: {info}"))
     scenes, over, notes = dataset_scenes(data, (), cfg.max_scenes, "all", per_sample=True)
     notes.append(f"--scenes: baked by ssgi_addon/bake.py into {data} ({res['baked']} baked, {res['skipped']} already "
                  f"there, {time.perf_counter() - t:.1f} s); every sample evaluated")
