@@ -1,8 +1,9 @@
 """The SSGI render path: for each frame, render EEVEE's passes -> predict -> composite with the artist's tree
 -> write the frame where the scene's output settings say, in their format.
 
-    session = RenderSession(scene, frames=[1, 2, 3], model=None, out=None)   # checks everything first
-    summary = session.run()                                                # or: for info in session.frames()
+    summary = run(RenderConfig(blend="shot.blend", frames=[1, 2, 3]))      # the stage (cli.py render)
+    session = RenderSession(scene, frames=[1, 2, 3], model=None, out=None)   # an open scene; checks first
+    summary = session.run()                                                # or: for info in session.iter_frames()
 
 Per frame:
 1. ``passes.render_gbuffer(scene, groups)`` renders the direct-only G-buffer the model needs (plus depth and
@@ -30,6 +31,7 @@ import os
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -250,6 +252,54 @@ class RenderSession:
         return {"scene": self.scene.name, "model": str(self.model_path), "inputs": ch.format_spec(self.spec),
                 "frames": [r["frame"] for r in res], "files": [r["path"] for r in res if "path" in r],
                 "cancelled": self.cancelled, "per_frame": res}
+
+
+# --- the stage (cli.py render) ----------------------------------------------------------------------------
+
+@dataclass
+class RenderConfig:
+    """What ``run`` renders; the defaults are those of ``cli.py render``."""
+    blend: str  # the .blend file (never written)
+    out: str | None = None  # output path, '#' for the frame number (None: the scene's output path)
+    frames: list | None = None  # frames to render (None: the scene's current frame)
+    model: str | None = None  # model checkpoint (None: the SSGI node's, the scene's or the shipped model)
+    scene: str | None = None  # scene name (None: the file's active scene)
+    samples: int | None = None  # EEVEE samples for the passes (None: the scene's render samples)
+    setup: bool = False  # run Set up SSGI first (enable the passes, insert the node)
+    save_passes: str | None = None  # also write each frame's G-buffer as SAVE_PASSES/NNNNNN.exr
+
+    def check(self) -> None:
+        from ..blender.blendfile import check_blend
+        check_blend(self.blend)
+        if self.frames is not None and not list(self.frames):
+            raise UserError("--frames: no frames to render")
+        if self.samples is not None and self.samples < 1:
+            raise UserError(f"--samples {self.samples}: must be >= 1")
+
+
+def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
+    """Open the .blend, (set up SSGI), render the frames through the SSGI node; returns the session's summary.
+    ``progress(dict)`` after each frame (done, total, progress, frame, path); ``should_stop()`` between frames."""
+    from ..blender.blendfile import open_blend, pick_scene
+    from ..blender.compositor import setup_scene
+
+    cfg.check()
+    blend = Path(cfg.blend).expanduser()
+    open_blend(cfg.blend)
+    scene = pick_scene(blend, cfg.scene)
+    if cfg.setup:
+        setup_scene(scene, cfg.model)
+    frames = list(cfg.frames) if cfg.frames else [scene.frame_current]
+    session = RenderSession(scene, frames, model=cfg.model, out=cfg.out, samples=cfg.samples,
+                            save_passes=cfg.save_passes)
+    print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path}",
+          file=sys.stderr)
+    for info in session.iter_frames(should_stop):
+        if progress is not None:
+            n = len(session.results)
+            progress(dict(done=n, total=len(frames), progress=n / len(frames), frame=info["frame"],
+                          path=info.get("path"), message=f"frame {info['frame']} done"))
+    return session.summary()
 
 
 # --- plain renders ---------------------------------------------------------------------------------------
