@@ -30,7 +30,7 @@ from ssgi.model.dataset import exrio
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.images import srgb8, write_png  # noqa: E402
 from ssgi.ssgi_addon.blender import passes, room
-from ssgi.ssgi_addon.pipeline import report as report_run  # noqa: E402
+from ssgi.ssgi_addon.pipeline import report_scenes  # noqa: E402
 
 ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 ap.add_argument("--data", default="/work/data/rooms3", help="dataset folder (its stored references are the target)")
@@ -55,7 +55,7 @@ def log(msg):
 
 pred = predictor.load_predictor(a.model)
 data = Path(a.data)
-scenes, over, notes = report_run.dataset_scenes(data, [pred.ckpt], split="val")
+scenes, over, notes = report_scenes.dataset_scenes(data, [pred.ckpt], split="val")
 for n in notes:
     log(n)
 size = over["size"]

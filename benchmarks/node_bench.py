@@ -49,8 +49,7 @@ def main() -> int:
 def bench(a) -> dict:
     import bpy
     import numpy as np
-    from ssgi.ops import node_ops
-    from ssgi.ssgi_addon.blender import passes
+    from ssgi.ssgi_addon.blender import compositor, passes, scene_state
     from ssgi.ssgi_addon.pipeline import render
 
     out = Path(a.out)
@@ -73,7 +72,7 @@ def bench(a) -> dict:
     ims = scene.render.image_settings
     ims.file_format = "PNG"
     scene.render.filepath = str(out / "ssgi_####")
-    node_ops.setup_scene(scene, a.model)
+    compositor.setup_scene(scene, a.model)
     bpy.ops.wm.save_as_mainfile(filepath=str(out / "room.blend"))
 
     t0 = time.perf_counter()
@@ -88,7 +87,7 @@ def bench(a) -> dict:
         from skimage.io import imsave
         for info in session.results:
             scene.frame_set(info["frame"])
-            with render.preserved(scene):
+            with scene_state.preserved(scene):
                 t = time.perf_counter()
                 ref = passes.render_cycles(scene, a.cycles_samples, seed=0, denoise=True)["ref"]
                 info["t_cycles"] = time.perf_counter() - t

@@ -1,4 +1,4 @@
-"""Benchmark: the per-sample reference target (issue 3; bake.render_reference), checked against the truth.
+"""Benchmark: the per-sample reference target (issue 3; reference.render_reference), checked against the truth.
 
 For each room, two references made the way the baker makes them (halves of different seeds, doubled until the
 halves' PSNR + 3.01 dB reaches the target, or --ref-samples is spent), from two disjoint sets of seeds. Prints
@@ -16,20 +16,20 @@ import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
-from ssgi.ssgi_addon.pipeline import bake
+from ssgi.ssgi_addon.blender import reference  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--rooms", type=int, nargs="+", default=[0, 1, 2])
-ap.add_argument("--target", type=float, default=bake.DEFAULT_REF_TARGET_DB)
-ap.add_argument("--ref-samples", type=int, default=bake.DEFAULT_REF_SAMPLES, help="most samples")
+ap.add_argument("--target", type=float, default=reference.DEFAULT_REF_TARGET_DB)
+ap.add_argument("--ref-samples", type=int, default=reference.DEFAULT_REF_SAMPLES, help="most samples")
 ap.add_argument("--size", type=parse_size, default=(240, 135))
 a = ap.parse_args()
 rows = []
 for r, scene in _bootstrap.rooms(a.rooms, a.size):
     refs, infos, secs = [], [], []
-    for s in (r * 2 + 1000, r * 2 + 1001):  # disjoint seed sets (bake.REF_SEED_STRIDE)
+    for s in (r * 2 + 1000, r * 2 + 1001):  # disjoint seed sets (reference.REF_SEED_STRIDE)
         t = time.perf_counter()
-        img, info = bake.render_reference(scene, a.ref_samples, a.target, seed=s)
+        img, info = reference.render_reference(scene, a.ref_samples, a.target, seed=s)
         secs.append(round(time.perf_counter() - t, 1))
         refs.append(img)
         infos.append(info)

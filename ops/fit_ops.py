@@ -8,6 +8,7 @@ from pathlib import Path
 import bpy
 
 from ..model.errors import UserError
+from ..ssgi_addon.paths import scene_path
 from ..ssgi_addon.runtime import ui_jobs
 from . import StartsJob
 
@@ -16,7 +17,7 @@ def fit_out(scene) -> Path:
     """The model the fit writes: the panel's "Save model as", or <file>_ssgi_fit.pt beside the saved .blend."""
     s = scene.ssgi
     if s.fit_out:
-        out = Path(bpy.path.abspath(s.fit_out)).expanduser()
+        out = Path(scene_path(s.fit_out, "Save model as"))
     elif bpy.data.filepath:
         b = Path(bpy.data.filepath)
         out = b.with_name(f"{b.stem}_{scene.name}_ssgi_fit.pt")

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import bpy
 
-from ..model import channels as ch
 from ..model.errors import UserError
 from ..ssgi_addon.blender import node as ssgi_node
+from ..ssgi_addon.blender.compositor import setup_scene
+from ..ssgi_addon.blender.predictor import pass_label
 from ..ssgi_addon.pipeline import render as ssgi_render
 from ..ssgi_addon.runtime import ui_jobs
 from . import JobSteps
@@ -23,24 +24,6 @@ def _compositor_tree(context):
     if tree is not None and tree.bl_idname == "CompositorNodeTree":
         return tree
     return None
-
-
-def setup_scene(scene, model: str | None = None) -> dict:
-    """Set up SSGI: check the model, enable the passes it needs on the first view layer, wire Render Layers ->
-    SSGI -> the output keeping the artist's nodes after it. The model is checked before anything changes."""
-    path = ssgi_node.resolve_model(scene, model)
-    pred = ssgi_render.load_model(path)
-    vl = scene.view_layers[0]
-    enabled = []
-    for flag in ch.required_passes(tuple(pred.spec)):
-        if not getattr(vl, flag):
-            setattr(vl, flag, True)
-            enabled.append(flag)
-    tree, node, rl = ssgi_node.wire(scene, vl)
-    if model:
-        node[ssgi_node.MODEL_PROP] = model
-    scene.render.use_compositing = True
-    return {"tree": tree.name, "node": node.name, "enabled_passes": enabled, "model": str(path)}
 
 
 class SSGI_OT_add_node(bpy.types.Operator):
@@ -79,7 +62,7 @@ class SSGI_OT_setup(bpy.types.Operator):
         except UserError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
-        extra = f"; enabled {', '.join(ssgi_render.pass_label(f) for f in info['enabled_passes'])}" if info["enabled_passes"] else ""
+        extra = f"; enabled {', '.join(pass_label(f) for f in info['enabled_passes'])}" if info["enabled_passes"] else ""
         self.report({"INFO"}, f"SSGI set up in {info['tree']!r}{extra}")
         return {"FINISHED"}
 

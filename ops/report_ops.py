@@ -9,6 +9,7 @@ import bpy
 
 from ..model.errors import UserError
 from ..ssgi_addon.blender import node
+from ..ssgi_addon.paths import required_path, scene_path
 from ..ssgi_addon.runtime import ui_jobs
 from . import StartsJob
 
@@ -18,12 +19,12 @@ def report_models(scene) -> list[Path]:
     s = scene.ssgi
     out = []
     # scene.ssgi.model_path first, before an SSGI node's model (node.resolve_model puts the node's first)
-    main = Path(bpy.path.abspath(s.model_path)).expanduser() if s.model_path else node.resolve_model(scene)
+    main = Path(scene_path(s.model_path, "Model")) if s.model_path else node.resolve_model(scene)
     if main.is_file() or s.model_path:
         out.append(main)
     for part in s.report_models.replace(",", ";").split(";"):
         if part.strip():
-            p = Path(bpy.path.abspath(part.strip())).expanduser()
+            p = Path(scene_path(part.strip(), "More models"))
             if p not in out:
                 out.append(p)
     return out
@@ -34,7 +35,7 @@ def check(scene) -> tuple[Path, list[Path], Path]:
     from ..model.dataset.folder import open_folder
 
     s = scene.ssgi
-    data = Path(bpy.path.abspath(s.dataset_dir).rstrip("/\\") or ".")
+    data = Path(required_path(s.dataset_dir, "dataset folder"))
     open_folder(data, scenes=True)
     models = report_models(scene)
     if not models:
@@ -42,7 +43,7 @@ def check(scene) -> tuple[Path, list[Path], Path]:
     for m in models:
         if not m.is_file():
             raise UserError(f"{m}: no such model file")
-    out = Path(bpy.path.abspath(s.report_out).rstrip("/\\")) if s.report_out else data.parent / "ssgi_report"
+    out = Path(scene_path(s.report_out, "Report folder") or data.parent / "ssgi_report")
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: is a file, not a folder")
     return data, models, out

@@ -1,10 +1,16 @@
-"""Scene settings of SSGI (``scene.ssgi``), shown by the panels and read by the operators."""
+"""Scene settings of SSGI (``scene.ssgi``), shown by the panels and read by the operators. Their defaults are
+the stages' (BakeConfig, FitSceneConfig, ReportConfig), so the UI and the command line start from the same
+settings; paths.py turns the path settings into absolute paths."""
 from __future__ import annotations
 
 import bpy
 
 from ..model.learn import variants as _variants
-from .pipeline import bake as _bake
+from .blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
+from .pipeline.bake import BakeConfig as _Bake
+from .pipeline.fit import FitSceneConfig as _Fit
+from .pipeline.randomize import RandomizeConfig as _Randomize
+from .pipeline.report import ReportConfig as _Report
 
 
 class SSGI_SceneSettings(bpy.types.PropertyGroup):
@@ -26,37 +32,37 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                             description="More checkpoints to compare, separated by ';' (network sizes, the linear baseline)")
     report_out: bpy.props.StringProperty(name="Report folder", subtype="DIR_PATH", default="",
                                          description="Where report.md, pareto.png, examples.png go; empty: ssgi_report beside the dataset")
-    report_max_scenes: bpy.props.IntProperty(name="Scenes", default=6, min=1, soft_max=50,
+    report_max_scenes: bpy.props.IntProperty(name="Scenes", default=_Report.max_scenes, min=1, soft_max=50,
                                              description="Evaluate at most this many validation scenes")
     # Fit to Scene panel (ssgi_addon/fit.py)
     fit_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
                                       description="The fitted model (.pt); empty: <file>_<scene>_ssgi_fit.pt beside the .blend")
-    fit_views: bpy.props.IntProperty(name="Views", default=24, min=4, soft_max=200,
+    fit_views: bpy.props.IntProperty(name="Views", default=_Fit.views, min=4, soft_max=200,
                                      description="About how many views of the scene to bake (some are held out)")
-    fit_minutes: bpy.props.FloatProperty(name="Minutes", default=15.0, min=0.1, soft_max=240.0,
+    fit_minutes: bpy.props.FloatProperty(name="Minutes", default=_Fit.minutes, min=0.1, soft_max=240.0,
                                          description="The whole time budget of the fit, bake included")
     fit_target_psnr: bpy.props.FloatProperty(name="Target PSNR", default=0.0, min=0.0, soft_max=60.0,
                                              description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
     # Dataset panel (ops/bake_ops.py): Randomize Room and Bake Dataset (defaults as cli.py randomize / bake)
-    room_seed: bpy.props.IntProperty(name="Room Seed", default=0, min=0, description="Seed of the random room")
-    bake_count: bpy.props.IntProperty(name="Rooms", default=10, min=0, soft_max=2000,
+    room_seed: bpy.props.IntProperty(name="Room Seed", default=_Randomize.seed, min=0, description="Seed of the random room")
+    bake_count: bpy.props.IntProperty(name="Rooms", default=_Bake.count, min=0, soft_max=2000,
                                       description="Number of random rooms to bake (room i uses seed + i)")
-    bake_seed: bpy.props.IntProperty(name="First Seed", default=0, min=0, description="Seed of the first room")
-    bake_width: bpy.props.IntProperty(name="Width", default=_bake.DEFAULT_SIZE[0], min=1, max=16384, subtype="PIXEL")
-    bake_height: bpy.props.IntProperty(name="Height", default=_bake.DEFAULT_SIZE[1], min=1, max=16384, subtype="PIXEL")
-    bake_ref_samples: bpy.props.IntProperty(name="Reference Samples", default=_bake.DEFAULT_REF_SAMPLES, min=1,
+    bake_seed: bpy.props.IntProperty(name="First Seed", default=_Bake.seed, min=0, description="Seed of the first room")
+    bake_width: bpy.props.IntProperty(name="Width", default=_Bake.size[0], min=1, max=16384, subtype="PIXEL")
+    bake_height: bpy.props.IntProperty(name="Height", default=_Bake.size[1], min=1, max=16384, subtype="PIXEL")
+    bake_ref_samples: bpy.props.IntProperty(name="Reference Samples", default=_Bake.ref_samples, min=1,
                                             soft_max=4096,
                                             description="Cycles samples per pixel of the reference: the most it "
                                                         "may take to reach Target Agreement, or exactly this many "
                                                         "with a target of 0 or with Denoise "
-                                                        f"({_bake.DENOISED_REF_SAMPLES} with Denoise agree to >= 40 "
+                                                        f"({DENOISED_REF_SAMPLES} with Denoise agree to >= 40 "
                                                         "dB, ~3 s a 240x135 room here)")
-    bake_ref_target_db: bpy.props.FloatProperty(name="Target Agreement (dB)", default=_bake.DEFAULT_REF_TARGET_DB,
+    bake_ref_target_db: bpy.props.FloatProperty(name="Target Agreement (dB)", default=DEFAULT_REF_TARGET_DB,
                                                 min=0.0, soft_max=60.0,
                                                 description="Render the raw reference as two halves of different "
                                                             "seeds, doubling them until two such references would "
                                                             "agree to this PSNR (0: a fixed Reference Samples)")
-    bake_denoise: bpy.props.BoolProperty(name="Denoise Reference", default=_bake.DEFAULT_DENOISE,
+    bake_denoise: bpy.props.BoolProperty(name="Denoise Reference", default=_Bake.denoise,
                                          description="Denoise the Cycles reference with OpenImageDenoise (off by "
                                                      "default; recorded in the dataset's manifest)")
 

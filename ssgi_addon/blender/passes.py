@@ -13,6 +13,10 @@ Contract (used by the baker and the compositor node):
 
 Pixels are read by saving the render result as a multilayer EXR (the only way that works in background mode,
 see docs/bake.md) and reading every part with OpenEXR.
+
+Why one module of ~420 lines: the G-buffer and the Cycles renders share its scene overrides (the world that
+lights nothing, hard lights, point-sampled pixels) and the EXR read-back; apart, each half would import the
+other's private helpers. Its temporary-file sweeper goes once model/files.py owns the one sweeper.
 """
 from __future__ import annotations
 
@@ -392,9 +396,3 @@ def set_resolution(scene, width: int, height: int) -> None:
     scene.render.resolution_x, scene.render.resolution_y = int(width), int(height)
     scene.render.resolution_percentage = 100
     scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
-
-
-def timed(fn, *a, **kw):
-    t = time.perf_counter()
-    r = fn(*a, **kw)
-    return r, time.perf_counter() - t

@@ -15,7 +15,7 @@ import random
 
 import bpy
 import bmesh
-from mathutils import Matrix, Vector
+from mathutils import Vector
 
 PREFIX = "ssgi."
 SHAPES = ("cube", "cone", "cylinder", "sphere", "monkey")
@@ -290,43 +290,3 @@ def describe_scene(scene) -> dict:
             d["lens"] = round(o.data.lens, 5)
         out[o.name] = d
     return out
-
-
-# --------------------------------------------------------------------------------------------- command line
-
-
-def run(args) -> dict:
-    from ..commands.render import stdout_to_stderr
-    with stdout_to_stderr():  # Blender prints "Info: Saved as ..." on stdout; stdout is for --json
-        return _run(args)
-
-
-def _run(args) -> dict:
-    import sys
-
-    from ...model.errors import UserError
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    build_room(args.seed, scene)
-    out = {"seed": args.seed, "objects": len(scene.objects), "camera": scene.camera.name}
-    if args.save:
-        import os
-        path = os.path.abspath(args.save)
-        d = os.path.dirname(path)
-        if not os.path.isdir(d):
-            raise UserError(f"--save {args.save}: folder {d} does not exist")
-        if not os.access(d, os.W_OK):
-            raise UserError(f"--save {args.save}: folder {d} is not writable")
-        bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
-        out["saved"] = path
-    print(f"room {args.seed}: {len(scene.objects)} objects" + (f", saved {out.get('saved')}" if args.save else ""),
-          file=sys.stderr)
-    return out
-
-
-def register_cli(sub) -> None:
-    p = sub.add_parser("randomize", help="build a random room scene from a seed",
-                       description="Build a random room (box, diffuse primitives, lights, camera) from --seed.")
-    p.add_argument("--seed", type=int, default=0, help="room seed (default 0)")
-    p.add_argument("--save", metavar="FILE.blend", help="save the scene to this .blend file")
-    p.set_defaults(func=run)

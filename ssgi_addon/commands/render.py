@@ -1,4 +1,4 @@
-"""`cli.py render`: render a .blend's frames through the SSGI node, headless.
+"""`cli.py render`: the render stage (ssgi_addon/pipeline/render.py) behind argparse.
 
     cli.py render --blend shot.blend --out out/shot_#### --frames 1-48 [--model m.pt] [--json]
 
@@ -10,68 +10,28 @@ is never written.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from ...model import cliargs
 from ...model.dataset.exrio import stdout_to_stderr
 
 
-# image formats by file extension, as `blender -F` names them (EXR: single layer, as -F EXR)
-FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".exr": "OPEN_EXR", ".tif": "TIFF", ".tiff": "TIFF",
-           ".bmp": "BMP", ".webp": "WEBP", ".tga": "TARGA", ".hdr": "HDR", ".jp2": "JPEG2000", ".dpx": "DPX",
-           ".cin": "CINEON", ".rgb": "IRIS"}
-_SAME = {"OPEN_EXR_MULTILAYER": "OPEN_EXR", "TARGA_RAW": "TARGA"}  # formats an extension already stands for
-
-
-def format_from_out(scene, out: str | None) -> str | None:
-    """Let a known image extension of ``out`` choose the output format (the .blend is never written). Returns
-    the format switched to, or None when the scene's format already matches or the extension is not known."""
-    fmt = FORMATS.get(Path(out.replace("#", "0")).suffix.lower()) if out else None
-    im = scene.render.image_settings
-    if fmt is None or _SAME.get(im.file_format, im.file_format) == fmt:
-        return None
-    im.media_type = "IMAGE"  # a video scene offers no image formats until its media type is an image
-    im.file_format = fmt
-    return fmt
-
-
 def run(args) -> dict:
-    with stdout_to_stderr():
-        return _run(args)
+    from ..pipeline import render
 
-
-def _run(args) -> dict:
-    from ..pipeline import render as ssgi_render
-    from ..blender.blendfile import open_blend, pick_scene
-
-    blend = Path(args.blend).expanduser()
-    open_blend(args.blend)
-    scene = pick_scene(blend, args.scene)
-    if args.setup:
-        from ...ops.node_ops import setup_scene
-        setup_scene(scene, args.model)
-    before = scene.render.image_settings.file_format
-    if format_from_out(scene, args.out):
-        print(f"SSGI render: --out {args.out}: writing {scene.render.image_settings.file_format} (the scene's "
-              f"output format is {before})", file=sys.stderr)
-    frames = list(args.frames) if args.frames else [scene.frame_current]
-    session = ssgi_render.RenderSession(scene, frames, model=args.model, out=args.out, samples=args.samples,
-                                        save_passes=args.save_passes)
-    print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path}",
-          file=sys.stderr)
+    cfg = render.RenderConfig(blend=args.blend, out=args.out, frames=args.frames, model=args.model,
+                              scene=args.scene, samples=args.samples, setup=args.setup, save_passes=args.save_passes)
+    frames = len(args.frames) if args.frames else 1
     try:
         from tqdm import tqdm
-        bar = tqdm(total=len(frames), unit="frame", file=sys.stderr, disable=len(frames) < 2)
+        bar = tqdm(total=frames, unit="frame", file=sys.stderr, disable=frames < 2)
     except ImportError:
         bar = None
     try:
-        for _ in session.iter_frames():
-            if bar is not None:
-                bar.update(1)
+        with stdout_to_stderr():
+            return render.run(cfg, progress=(lambda d: bar.update(1)) if bar is not None else None)
     finally:
         if bar is not None:
             bar.close()
-    return session.summary()
 
 
 def register_cli(sub) -> None:

@@ -1,13 +1,12 @@
-"""Subcommands ``train``, ``baseline``, ``predict`` and ``bench`` (torch is imported inside ``run``)."""
+"""Subcommands ``train``, ``baseline``, ``predict`` (the learning stages, ssgi_addon/pipeline/learn.py),
+``curves`` and ``bench`` behind argparse (torch is imported inside ``run``)."""
 from __future__ import annotations
 
 import json
-import shlex
 import sys
 
-
-def _command() -> str:
-    return " ".join(shlex.quote(a) for a in [sys.executable] + sys.argv)
+from ..pipeline.learn import BaselineConfig, PredictConfig
+from . import command_line
 
 
 def _arch_overrides(text: str | None) -> dict:
@@ -24,14 +23,16 @@ def _arch_overrides(text: str | None) -> dict:
 
 
 def run_train(args) -> dict:
-    from ...model.learn.train import TrainConfig, Trainer
+    from ...model.learn.train import TrainConfig
     from tqdm import tqdm
+
+    from ..pipeline import learn
 
     cfg = TrainConfig(data=args.data, out=args.out, variant=args.variant, inputs=args.inputs,
                       arch=_arch_overrides(args.arch), minutes=args.minutes, epochs=args.epochs, resume=args.resume,
                       optimizer=args.optimizer, lr=args.lr, clip=args.clip, batch=args.batch, crop=args.crop,
                       crops_per_image=args.crops_per_image, early_stop=args.early_stop, threads=args.threads,
-                      seed=args.seed, val_fraction=args.val_fraction, command=_command())
+                      seed=args.seed, val_fraction=args.val_fraction, command=command_line())
     bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet, bar_format="{l_bar}{bar}| {postfix}")
 
     def cb(d):
@@ -40,21 +41,22 @@ def run_train(args) -> dict:
                             + (f" eta {d['eta_s'] / 60:.1f} min" if d.get("eta_s") is not None else ""))
 
     try:
-        res = Trainer(cfg, log=(lambda m: bar.write(m, file=sys.stderr))).run(callback=cb)
+        res = learn.train(cfg, progress=cb, log=(lambda m: bar.write(m, file=sys.stderr)))
     finally:
         bar.close()
     return res
 
 
 def run_baseline(args) -> dict:
-    from ...model.learn.baseline import run_baseline as fit
-    return fit(args.data, args.out, inputs=args.inputs, space=args.space, seed=args.seed,
-               val_fraction=args.val_fraction, command=_command())
+    from ..pipeline import learn
+    return learn.baseline(BaselineConfig(data=args.data, out=args.out, inputs=args.inputs, space=args.space,
+                                         seed=args.seed, val_fraction=args.val_fraction, command=command_line()))
 
 
 def run_predict(args) -> dict:
-    from ...model.infer.predict import predict_file
-    res = predict_file(args.model, args.input, args.out, png=args.png, threads=args.threads, tile=args.tile)
+    from ..pipeline import learn
+    res = learn.predict(PredictConfig(model=args.model, input=args.input, out=args.out, png=args.png,
+                                      threads=args.threads, tile=args.tile))
     msg = f"wrote {res['out']} ({res['size'][1]}x{res['size'][0]}) in {res['seconds'] * 1000:.0f} ms"
     if "psnr" in res:
         msg += f"; PSNR vs ref {res['psnr']:.2f} dB (tm {res['tm_psnr']:.2f}, SSIM {res['ssim']:.3f})"
@@ -110,14 +112,15 @@ def register_cli(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
 
+    B = BaselineConfig
     p = sub.add_parser("baseline", help="fit the per-pixel linear-regression baseline in closed form")
     p.add_argument("--data", required=True, metavar="DIR")
     p.add_argument("--out", required=True, metavar="MODEL")
-    p.add_argument("--inputs", default=ch.format_spec(ch.DEFAULT_INPUTS), metavar="SPEC")
-    p.add_argument("--space", default="linear", choices=("linear", "log"),
+    p.add_argument("--inputs", default=B.inputs, metavar="SPEC")
+    p.add_argument("--space", default=B.space, choices=("linear", "log"),
                    help="regress linear RGB (the seed's) or log1p RGB (default %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="split seed (same as train's)")
-    p.add_argument("--val-fraction", type=float, default=0.2)
+    p.add_argument("--seed", type=int, default=B.seed, help="split seed (same as train's)")
+    p.add_argument("--val-fraction", type=float, default=B.val_fraction)
     p.set_defaults(func=run_baseline)
 
     p = sub.add_parser("predict", help="run a model on one sample EXR")

@@ -1,50 +1,61 @@
-"""`cli.py demo` (`make demo`): SSGI's main job on one random room, end to end.
+"""The demo stage (`cli.py demo`, `make demo`): SSGI's main job on one random room, end to end.
 
-    cli.py demo --out out/demo [--seed 7] [--size 240x135] [--ref-samples 128] [--model m.pt] [--json]
+    summary = run(DemoConfig(out="out/demo", seed=7, size=(240, 135), ref_samples=128))
 
-1. randomize a room (ssgi_addon/room.py ``build_room(seed)``);
-2. render it with SSGI: EEVEE's direct-only passes -> the model -> the SSGI compositor node (ssgi_addon/render.py
-   ``RenderSession``, after ``setup_scene``), with the shipped default model models/ssgi_default.pt;
-3. render the Cycles reference (ssgi_addon/passes.py ``render_cycles``);
-4. write PNGs into --out: eevee_direct.png, ssgi.png, cycles_reference.png and sheet.png (side by side), and
+1. randomize a room (ssgi_addon/blender/room.py ``build_room(seed)``);
+2. render it with SSGI: EEVEE's direct-only passes -> the model -> the SSGI compositor node (pipeline/render.py
+   ``RenderSession``, after blender/compositor.py ``setup_scene``), with the shipped default model
+   models/ssgi_default.pt;
+3. render the Cycles reference (blender/passes.py ``render_cycles``);
+4. write PNGs into ``out``: eevee_direct.png, ssgi.png, cycles_reference.png and sheet.png (side by side), and
    print the times and the PSNR of EEVEE direct light and of SSGI against Cycles.
 
-Pieces that are missing (no torch, no shipped model, a module not written yet) are skipped; the summary's
-``missing`` list and stderr say what was not done and why.
+Pieces that are missing (no torch, no shipped model) are skipped; the summary's ``missing`` list and stderr
+say what was not done and why.
 """
 from __future__ import annotations
 
-import argparse
-import importlib
 import math
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ...model import cliargs
 from ...model.errors import UserError
 
 PNG_NAMES = {"eevee": "eevee_direct.png", "ssgi": "ssgi.png", "ref": "cycles_reference.png"}
 TITLES = {"eevee": "EEVEE direct light", "ssgi": "SSGI (EEVEE + learned GI)", "ref": "Cycles reference"}
 
 
+@dataclass
+class DemoConfig:
+    """What ``run`` renders; the defaults are those of ``cli.py demo``."""
+    out: str = "out/demo"  # output folder
+    seed: int = 7  # room seed
+    size: tuple[int, int] = (240, 135)  # render size (the training size)
+    samples: int = 1  # EEVEE samples for the passes
+    ref_samples: int = 128  # Cycles samples for the reference; 0 skips it
+    denoise: bool = True  # denoise the Cycles reference with OpenImageDenoise
+    model: str | None = None  # model checkpoint (None: the shipped models/ssgi_default.pt)
+    exposure: float = 1.0  # exposure of the PNG previews
+
+    def check(self) -> None:
+        out = Path(self.out)
+        if out.exists() and not out.is_dir():
+            raise UserError(f"--out {out}: is a file, not a folder")
+        if self.seed < 0:
+            raise UserError(f"--seed {self.seed}: must be >= 0")
+        if min(self.size) < 1 or self.samples < 1 or self.ref_samples < 0 or not self.exposure > 0:
+            raise UserError(f"size {self.size}, samples {self.samples}, ref_samples {self.ref_samples}, exposure "
+                            f"{self.exposure}: size and samples must be positive, ref_samples >= 0, exposure > 0")
+        if self.model and not Path(self.model).is_file():
+            raise UserError(f"--model {self.model}: no such model file")
+
+
 def log(msg: str) -> None:
     print(f"demo: {msg}", file=sys.stderr, flush=True)
-
-
-def _optional(name: str, missing: list[str], what: str):
-    """Import a package module if it exists; a module that is not written yet goes into ``missing``."""
-    from .. import root_package
-    full = f"{root_package()}.{name}"
-    try:
-        return importlib.import_module(full)
-    except ModuleNotFoundError as e:
-        if e.name != full:
-            raise
-        missing.append(f"{name.replace('.', '/')}.py ({what}) is not there yet")
-        return None
 
 
 def _timed(times: dict, key: str, fn, *a, **kw):
@@ -72,13 +83,12 @@ def labelled_sheet(images: list[tuple[str, np.ndarray]], strip: int = 18) -> np.
     return np.concatenate(row, axis=1)
 
 
-def _ssgi_render(scene, model: Path, samples: int, missing: list[str], times: dict):
-    """Render through the SSGI node; returns (prediction HxWx3, eevee HxWx3) or None when a piece is missing."""
-    render = _optional("ssgi_addon.pipeline.render", missing, "the SSGI render path")
-    node_ops = _optional("ops.node_ops", missing, "Set up SSGI")
-    if render is None or node_ops is None:
-        return None
-    _timed(times, "setup", node_ops.setup_scene, scene, str(model))
+def _ssgi_render(scene, model: Path, samples: int, times: dict):
+    """Render through the SSGI node; returns (prediction HxWx3, eevee HxWx3)."""
+    from ..blender.compositor import setup_scene
+    from . import render
+
+    _timed(times, "setup", setup_scene, scene, str(model))
     session = render.RenderSession(scene, [scene.frame_current], model=str(model), write=False, keep_groups=True,
                                    samples=samples)
     t = time.perf_counter()
@@ -91,27 +101,24 @@ def _ssgi_render(scene, model: Path, samples: int, missing: list[str], times: di
     return np.asarray(info["prediction"], np.float32)[..., :3], np.asarray(groups["eevee"], np.float32)[..., :3]
 
 
-def run(args) -> dict:
+def run(cfg: DemoConfig) -> dict:
+    """Render the demo (module doc); returns the summary: out, seed, size, model, files, times_s, psnr_db,
+    missing."""
     import bpy
 
+    from ..blender import node, passes, room
     from ..runtime import deps
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: is a file, not a folder")
+    cfg.check()
+    out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     missing: list[str] = []
     times: dict[str, float] = {}
     t_start = time.perf_counter()
-    w, h = args.size
+    w, h = cfg.size
 
-    room = _optional("ssgi_addon.blender.room", missing, "build_room(seed), the room randomizer")
-    passes = _optional("ssgi_addon.blender.passes", missing, "render_gbuffer / render_cycles")
     torch_ok, torch_info = deps.torch_status()
-    model = Path(args.model) if args.model else None
-    if model is None:
-        from .. import root_package
-        model = Path(sys.modules[root_package()].__file__).resolve().parent / "models" / "ssgi_default.pt"
+    model = Path(cfg.model) if cfg.model else node.DEFAULT_MODEL
     if not torch_ok:
         missing.append(f"PyTorch: {torch_info} (the SSGI prediction needs it)")
     fault = cliargs.model_file_fault(model)
@@ -120,34 +127,27 @@ def run(args) -> dict:
     if not model.is_file():
         missing.append(f"the shipped default model {model} is not there yet (train one, or pass --model)")
 
-    summary: dict = {"out": str(out), "seed": args.seed, "size": f"{w}x{h}", "model": str(model) if model.is_file() else None,
+    summary: dict = {"out": str(out), "seed": cfg.seed, "size": f"{w}x{h}", "model": str(model) if model.is_file() else None,
                      "files": {}, "times_s": times, "psnr_db": {}, "missing": missing}
-    if room is None or passes is None:
-        for m in missing:
-            log("not done: " + m)
-        log("nothing to render without the room randomizer and the pass renderer")
-        return summary
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    log(f"randomizing room {args.seed}")
-    _timed(times, "room", room.build_room, args.seed, scene)
+    log(f"randomizing room {cfg.seed}")
+    _timed(times, "room", room.build_room, cfg.seed, scene)
     passes.set_resolution(scene, w, h)
 
     imgs: dict[str, np.ndarray] = {}
     if torch_ok and model.is_file():
         log(f"rendering with SSGI at {w}x{h} (model {model.name})")
-        r = _ssgi_render(scene, model, args.samples, missing, times)
-        if r is not None:
-            imgs["ssgi"], imgs["eevee"] = r
+        imgs["ssgi"], imgs["eevee"] = _ssgi_render(scene, model, cfg.samples, times)
     if "eevee" not in imgs:
         log(f"rendering EEVEE direct light at {w}x{h} (no SSGI prediction: see the list at the end)")
-        g = _timed(times, "eevee", passes.render_gbuffer, scene, ("eevee",), samples=args.samples)
+        g = _timed(times, "eevee", passes.render_gbuffer, scene, ("eevee",), samples=cfg.samples)
         imgs["eevee"] = np.asarray(g["eevee"], np.float32)[..., :3]
-    if args.ref_samples > 0:
-        log(f"rendering the Cycles reference ({args.ref_samples} samples{', denoised' if args.denoise else ''})")
-        ref = _timed(times, "cycles", passes.render_cycles, scene, args.ref_samples, seed=args.seed,
-                     denoise=args.denoise)
+    if cfg.ref_samples > 0:
+        log(f"rendering the Cycles reference ({cfg.ref_samples} samples{', denoised' if cfg.denoise else ''})")
+        ref = _timed(times, "cycles", passes.render_cycles, scene, cfg.ref_samples, seed=cfg.seed,
+                     denoise=cfg.denoise)
         imgs["ref"] = np.asarray(ref["ref"], np.float32)[..., :3]
     else:
         missing.append("the Cycles reference (skipped: --ref-samples 0)")
@@ -160,9 +160,9 @@ def run(args) -> dict:
                 summary["psnr_db"][k] = round(float(metrics.psnr(imgs[k], imgs["ref"])), 3)
     for k, name in PNG_NAMES.items():
         if k in imgs:
-            write_png(out / name, srgb8(imgs[k], args.exposure))
+            write_png(out / name, srgb8(imgs[k], cfg.exposure))
             summary["files"][k] = str(out / name)
-    sheet = [(TITLES[k] + (f"  {summary['psnr_db'][k]:.2f} dB" if k in summary["psnr_db"] else ""), srgb8(imgs[k], args.exposure))
+    sheet = [(TITLES[k] + (f"  {summary['psnr_db'][k]:.2f} dB" if k in summary["psnr_db"] else ""), srgb8(imgs[k], cfg.exposure))
              for k in ("eevee", "ssgi", "ref") if k in imgs]
     write_png(out / "sheet.png", labelled_sheet(sheet))
     summary["files"]["sheet"] = str(out / "sheet.png")
@@ -176,22 +176,3 @@ def run(args) -> dict:
         log("not done: " + m)
     log(f"wrote {', '.join(Path(f).name for f in summary['files'].values())} into {out}")
     return summary
-
-
-def register_cli(sub) -> None:
-    p = sub.add_parser("demo", help="randomize a room, render it with SSGI and Cycles, write PNGs and PSNR",
-                       description="SSGI's main job on one random room: EEVEE direct light, the SSGI prediction "
-                                   "(shipped default model) and the Cycles reference as PNGs plus a side-by-side "
-                                   "sheet; prints the times and the PSNR against Cycles.")
-    p.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
-    p.add_argument("--seed", type=cliargs.nonnegative_int, default=7, help="room seed (default: 7)")
-    p.add_argument("--size", type=cliargs.parse_size, default=cliargs.parse_size("240x135"),
-                   help="render size WIDTHxHEIGHT (default: 240x135, the training size)")
-    p.add_argument("--samples", type=cliargs.positive_int, default=1, help="EEVEE samples for the passes (default: 1)")
-    p.add_argument("--ref-samples", type=cliargs.nonnegative_int, default=128,
-                   help="Cycles samples for the reference; 0 skips it (default: 128)")
-    p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=True,
-                   help="denoise the Cycles reference with OpenImageDenoise (default: on)")
-    p.add_argument("--model", default=None, help="model checkpoint (default: the shipped models/ssgi_default.pt)")
-    p.add_argument("--exposure", type=cliargs.positive_float, default=1.0, help="exposure of the PNG previews")
-    p.set_defaults(func=run)

@@ -1,175 +1,169 @@
-"""Fit to Scene, the Blender side: the views of an artist's scene and their bake.
+"""The fit stage (Fit to Scene): bake views of an artist's scene, fit a small model to them, report.
 
-    plan = make_views(scene, views=24, seed=0)        # jittered cameras added to the OPEN file (a copy of it)
-    bpy.ops.wm.save_as_mainfile(filepath=work_blend, copy=True)
-    bake_views(work_blend, data_dir, plan, size)     # `cli.py bake --scenes work_blend --frames ...` (the baker)
-    train, val, test = split_views(data_dir, plan)   # held-out views by camera
-    model.fit.fit(FitConfig(...))                    # size search, input ablation, report (bpy-free)
+    summary = run(FitSceneConfig(blend="shot.blend", out="shot_ssgi.pt", views=24, minutes=15))
 
-Views: the scene's own cameras at ``len(frames)`` frames spread over the animation (one frame, the current,
-when nothing is animated), plus jittered cameras: each a real camera object ``ssgi.fit.view_NN`` sharing the
-camera data (lens) of one scene camera and parented to it with a local offset, so that it follows the shot
-and every frame gives a new view: moved by up to ``radius`` (JITTER_FRACTION of the diagonal of the scene's
-mesh bounds; in a random direction at a random frame of the animation, then shortened so that it passes no
-surface there nor at any frame of the plan) and turned by up to JITTER_DEG degrees about the camera's own
-axes. The baker renders every camera at
-every frame, so there are (scene cameras + jittered cameras) x frames views. Whole jittered cameras are held
-out: ``val`` cameras choose (best epoch, size, inputs), ``test`` cameras only judge the result. The scene's
-own cameras are always training views: the point is to fit the shots the artist renders.
+1. ``views.make_views`` adds jittered cameras to the open file (ssgi_addon/blender/views.py), which is saved as
+   a copy ``MODEL.fit/views-TAG.blend`` (the .blend itself is never written);
+2. ``bake_views`` bakes every camera of that copy at the plan's frames (``cli.py bake --scenes``, a child
+   process; the baker resumes a half-done folder);
+3. ``views.split_views`` holds out views by camera; ``model.learn.fit.fit`` searches the size, drops inputs and
+   writes MODEL and its report (bpy-free).
 
-The "Fit to Scene" operator runs ``cli.py fit`` in a separate process (EEVEE and Cycles renders of the bake
-must not block Blender's UI, and a GL abort there cannot take Blender down): runtime/ui_jobs.py ``fit``.
+TAG hashes the .blend's bytes and the plan: the same config on an unchanged file reuses the views already
+baked; an edited file gets new views. ``data=DIR`` fits views baked before (roles from ``plan``, or: cameras
+named ssgi.fit.view_* held out as make_views does). ``minutes`` is the whole budget, bake included.
+
+The "Fit to Scene" operator runs ``cli.py fit --progress`` in a separate process (runtime/ui_jobs.py ``fit``,
+through the one child launcher): EEVEE and Cycles renders of the bake must not block Blender's UI, and a GL
+abort there cannot take Blender down.
 """
 from __future__ import annotations
 
+import json
 import math
-import random
 import sys
+import time
+from dataclasses import dataclass
 from pathlib import Path
 
+from ...model import cliargs, files
 from ...model.errors import UserError
 
-JITTER_FRACTION = 0.04  # of the mesh bounds' diagonal
-JITTER_DEG = 8.0
-VIEW_PREFIX = "ssgi.fit.view_"
-
-
-# ------------------------------------------------------------------------------------------------- views
-
-def view_counts(views: int, n_frames_available: int, n_cameras: int) -> tuple[int, int]:
-    """(frames, jittered cameras) for about ``views`` views: frames ~ sqrt(views / 2) (at most the animation's
-    length), cameras enough for the rest, and at least 3 jittered cameras (one each for val and test)."""
-    if views < 4:
-        raise UserError(f"--views {views}: at least 4 views are needed (training, validation and test views)")
-    nf = max(1, min(n_frames_available, int(round(math.sqrt(views / 2.0)))))
-    n_cams = math.ceil(views / nf)
-    return nf, max(3, n_cams - n_cameras)
-
-
-def roles(n_jitter: int, rng: random.Random) -> list[str]:
-    """Held-out roles of the jittered cameras: ~20 % val, ~20 % test (at least one each), the rest train."""
-    n_val = max(1, round(0.2 * n_jitter))
-    n_test = max(1, round(0.2 * n_jitter))
-    r = ["val"] * n_val + ["test"] * n_test + ["train"] * (n_jitter - n_val - n_test)
-    rng.shuffle(r)
-    return r
-
-
-def _animated(scene) -> bool:
-    return any(o.animation_data is not None and o.animation_data.action is not None for o in scene.objects)
-
-
-def _bounds_diagonal(scene) -> float:
-    from mathutils import Vector
-    lo, hi = [math.inf] * 3, [-math.inf] * 3
-    for o in scene.objects:
-        if o.type != "MESH" or o.hide_render:
-            continue
-        for c in o.bound_box:
-            w = o.matrix_world @ Vector(c)
-            for i in range(3):
-                lo[i], hi[i] = min(lo[i], w[i]), max(hi[i], w[i])
-    if not math.isfinite(lo[0]):
-        return 1.0
-    return math.dist(lo, hi)
-
-
-def _free_offset(scene, depsgraph, origin, offset):
-    """``offset`` shortened to half the distance to the first surface along it (the camera stays in free space)."""
-    d = offset.length
-    if d <= 0:
-        return offset
-    hit, loc, *_ = scene.ray_cast(depsgraph, origin, offset.normalized(), distance=d * 2.0)
-    if hit:
-        free = (loc - origin).length
-        if free < d * 2.0:
-            return offset.normalized() * min(d, 0.5 * free)
-    return offset
-
-
-def make_views(scene, views: int = 24, seed: int = 0) -> dict:
-    """Add the jittered cameras to ``scene`` (of a file that will be saved as a copy) and return the plan:
-    frames, and each camera's role (train / val / test)."""
-    from mathutils import Euler, Vector
-
-    cams = [o for o in scene.objects if o.type == "CAMERA"]
-    if not cams:
-        raise UserError(f"scene {scene.name!r} has no camera: add the camera(s) you render with")
-    if scene.camera in cams:  # the active camera first
-        cams.remove(scene.camera)
-        cams.insert(0, scene.camera)
-    rng = random.Random(seed)
-    f0, f1 = scene.frame_start, scene.frame_end
-    anim = _animated(scene) and f1 > f0
-    avail = (f1 - f0 + 1) if anim else 1
-    nf, n_jit = view_counts(views, avail, len(cams))
-    if anim:
-        frames = sorted({f0 + (f1 - f0) * i // max(1, nf - 1) for i in range(nf)}) if nf > 1 else [(f0 + f1) // 2]
-    else:
-        frames = [scene.frame_current]
-    radius = JITTER_FRACTION * _bounds_diagonal(scene)
-    current = scene.frame_current
-    plan = dict(scene=scene.name, frames=frames, radius=radius, max_turn_deg=JITTER_DEG, seed=seed,
-                cameras={c.name: "train" for c in cams}, views=views)
-    for j, role in enumerate(roles(n_jit, rng)):
-        base = cams[j % len(cams)]
-        chosen = rng.randint(f0, f1) if anim else current
-        scene.frame_set(chosen)
-        m = base.matrix_world.copy()
-        origin = m.to_translation()
-        direction = Vector([rng.gauss(0, 1) for _ in range(3)])
-        if direction.length < 1e-9:
-            direction = Vector((1.0, 0.0, 0.0))
-        offset = direction.normalized() * radius * rng.uniform(0.4, 1.0)
-        turn = Euler((math.radians(rng.uniform(-JITTER_DEG, JITTER_DEG)),
-                      math.radians(rng.uniform(-JITTER_DEG, JITTER_DEG)), 0.0), "XYZ").to_matrix().to_4x4()
-        # the move in the camera's own frame: the jittered camera follows its base camera (parented), so every
-        # frame of the plan gives a new view; the move is shortened so that it passes no surface at the chosen
-        # frame nor at any frame the baker renders
-        local_t = m.inverted_safe().to_3x3() @ offset
-        for f in [chosen] + [f for f in frames if f != chosen]:
-            scene.frame_set(f)
-            mf = base.matrix_world
-            world_t = mf.to_3x3() @ local_t
-            free = _free_offset(scene, bpy_context_depsgraph(), mf.to_translation(), world_t)
-            if world_t.length > 0 and free.length < world_t.length:
-                local_t = local_t * (free.length / world_t.length)
-        local = turn.copy()  # turn about the camera's own axes
-        local.translation = local_t
-        import bpy
-        obj = bpy.data.objects.new(f"{VIEW_PREFIX}{j:02d}", base.data)
-        scene.collection.objects.link(obj)
-        obj.parent = base
-        obj.matrix_parent_inverse.identity()
-        obj.matrix_basis = local  # world = base's world matrix @ local, at every frame
-        obj["ssgi_fit_role"] = role
-        obj["ssgi_fit_from"] = base.name
-        obj["ssgi_fit_frame"] = chosen
-        plan["cameras"][obj.name] = role
-    scene.frame_set(current)
-    return plan
-
-
-def bpy_context_depsgraph():
-    import bpy
-    return bpy.context.evaluated_depsgraph_get()
-
-
-def default_size(scene, width: int = 240) -> tuple[int, int]:
-    """The views' size: ``width`` wide (never wider than the scene renders) at the scene's aspect ratio."""
-    r = scene.render
-    width = max(8, min(width, int(r.resolution_x * r.resolution_percentage / 100)))
-    aspect = (r.resolution_y * r.pixel_aspect_y) / max(1e-9, r.resolution_x * r.pixel_aspect_x)
-    return width, max(8, int(round(width * aspect)))
-
-
-# ------------------------------------------------------------------------------------------------- bake
-
+MIN_FIT_MINUTES = 0.5
 # The views' references: 16 spp + OIDN, not the baker's default (raw, up to 4096 spp), to keep the whole fit
 # within its 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the
 # fitted models' error (25-35 dB).
 FIT_REF_SAMPLES = 16
 
+
+# ------------------------------------------------------------------------------------------------- the stage
+
+@dataclass
+class FitSceneConfig:
+    """What ``run`` fits; the defaults are those of ``cli.py fit`` and the Fit panel."""
+    out: str  # the checkpoint to write (.pt)
+    blend: str | None = None  # the scene's .blend (not modified) ...
+    data: str | None = None  # ... or views baked before
+    plan: dict | str | None = None  # with data: the views_plan.json of that bake (a dict or the file)
+    scene: str | None = None  # scene name (None: the file's active scene)
+    views: int = 24  # about how many views to bake
+    minutes: float = 15.0  # the whole time budget, bake included
+    target_psnr: float | None = None  # None: the generic model's + 2 dB, or 30 dB without one
+    size: tuple[int, int] | None = None  # views' size (None: views.default_size, 240 wide)
+    init: str | None = None  # checkpoint to fine-tune from (None: the shipped model when present)
+    drop_tol: float = 0.1  # drop an input pass when the val PSNR without it is at most this much lower (dB)
+    ref_samples: int = FIT_REF_SAMPLES  # Cycles samples of the views' references (+ OIDN)
+    ladder: list | None = None  # [[name, variant, {overrides}], ...] (None: model.learn.fit.LADDER)
+    crop: int | None = None  # training crop (None: FitConfig's)
+    min_run_s: float | None = None  # shortest training run worth starting (None: FitConfig's)
+    threads: int | None = None  # torch threads
+    seed: int = 0
+    command: str | None = None  # recorded in the checkpoint
+
+    def check(self) -> None:
+        """UserError naming the setting, before any work (nothing is written)."""
+        out = Path(self.out).expanduser()
+        if out.suffix != ".pt":
+            raise UserError(f"--out {self.out}: the model file must end in .pt")
+        if not out.resolve().parent.is_dir():
+            raise UserError(f"--out {self.out}: folder {out.resolve().parent} does not exist")
+        if not self.data and not self.blend:
+            raise UserError("give --blend FILE (the scene to fit) or --data DIR (views baked before)")
+        if self.views < 4:
+            raise UserError(f"--views {self.views}: at least 4 views are needed (training, validation and test views)")
+        if not (self.minutes > 0 and math.isfinite(self.minutes)):
+            raise UserError(f"--minutes must be > 0 (got {self.minutes})")
+        if self.ref_samples < 1:
+            raise UserError(f"--ref-samples {self.ref_samples}: must be positive")
+        fault = cliargs.model_file_fault(self.init) if self.init else None
+        if fault:  # before any baking
+            raise UserError(f"--init {self.init}: {fault}")
+        if isinstance(self.plan, str) and not Path(self.plan).is_file():
+            raise UserError(f"--plan {self.plan}: no such file")
+        if self.ladder is not None and not (isinstance(self.ladder, list) and all(
+                isinstance(r, (list, tuple)) and len(r) == 3 for r in self.ladder)):
+            raise UserError(f"--ladder must be a JSON list of [name, variant, {{overrides}}], got {self.ladder!r}")
+
+
+def work_dir(out) -> Path:
+    """MODEL.fit/ beside the model: the views' .blend copy, the baked views, the plan, the candidates."""
+    o = Path(out)
+    return o.with_name(o.stem + ".fit")
+
+
+def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
+    """Fit a model to a scene (module doc); returns the summary (model.learn.fit.fit's, plus bake_minutes,
+    total_minutes, views, init). ``progress(dict)`` gets phase / message / progress; ``should_stop()`` is
+    checked by the fit between training steps."""
+    from ..blender import views as fviews
+
+    log = log or _stderr
+    cfg.check()
+    t0 = time.perf_counter()
+    out = Path(cfg.out).expanduser().resolve()
+    work = work_dir(out)
+    report = progress or (lambda d: None)
+    bake_s = 0.0
+    if cfg.data:
+        data_dir = Path(cfg.data)
+        plan = cfg.plan if isinstance(cfg.plan, dict) else (
+            json.loads(Path(cfg.plan).read_text()) if cfg.plan else fviews.derive_plan(data_dir, cfg.seed))
+    else:
+        import bpy
+
+        from ..blender.blendfile import check_blend, open_blend, pick_scene
+        blend = check_blend(cfg.blend)
+        open_blend(blend)
+        scene = pick_scene(blend, cfg.scene)
+        if bpy.context.window is not None and bpy.context.scene != scene:
+            bpy.context.window.scene = scene
+        report(dict(phase="views", message="adding jittered cameras", progress=0.0))
+        plan = fviews.make_views(scene, cfg.views, cfg.seed)
+        size = tuple(cfg.size) if cfg.size else fviews.default_size(scene)
+        plan.update(size=list(size), blend=str(blend))
+        work.mkdir(parents=True, exist_ok=True)
+        # views of THIS file with THESE settings: an edited scene gets new views, an unchanged one resumes
+        tag = fviews.views_tag(blend, plan)
+        wblend = work / f"views-{tag}.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(wblend), copy=True)
+        files.write_json(work / "views_plan.json", plan, default=str)
+        data_dir = work / f"views-{tag}"
+        report(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
+        bake_views(wblend, data_dir, plan, size, ref_samples=cfg.ref_samples, log=log)
+        bake_s = time.perf_counter() - t0
+        log(f"fit: views baked in {bake_s / 60:.2f} min")
+    train, val, test = fviews.split_views(data_dir, plan)
+
+    from ...model.learn import fit as mfit
+    from ..blender.node import DEFAULT_MODEL
+    init = cfg.init or (str(DEFAULT_MODEL) if DEFAULT_MODEL.is_file() else None)
+    left = 60.0 * cfg.minutes - (time.perf_counter() - t0)
+    floor = max(0.1 * 60.0 * cfg.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
+    fit_minutes = max(left, floor) / 60.0
+    if left < floor:
+        log(f"fit: the bake took {bake_s / 60:.2f} of {cfg.minutes:g} min; fitting gets {fit_minutes:.2f} min "
+            "(the whole fit will run over the budget)")
+    mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
+                          minutes=fit_minutes, target_psnr=cfg.target_psnr, init=init, threads=cfg.threads,
+                          seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command)
+    if cfg.ladder:
+        mcfg.ladder = [list(r) for r in cfg.ladder]
+    if cfg.crop:
+        mcfg.crop = cfg.crop
+    if cfg.min_run_s:
+        mcfg.min_run_s = cfg.min_run_s
+    res = mfit.fit(mcfg, callback=progress, should_stop=should_stop)
+    res.update(bake_minutes=bake_s / 60.0, total_minutes=(time.perf_counter() - t0) / 60.0, views=str(data_dir),
+               init=init)
+    if res.get("report"):  # the bake's share belongs in the report too
+        rp = Path(res["report"])
+        rep = json.loads(rp.read_text())
+        rep.update(bake_minutes=res["bake_minutes"], total_minutes=res["total_minutes"])
+        files.write_json(rp, rep, default=str)
+    return res
+
+
+# ------------------------------------------------------------------------------------------------- bake
 
 def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None) -> None:
     """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
@@ -185,31 +179,3 @@ def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None =
 
 def _stderr(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
-
-
-def sample_camera(meta: dict) -> str | None:
-    c = meta.get("camera")
-    if isinstance(c, dict):
-        c = c.get("name")
-    return None if c is None or isinstance(c, (dict, list)) else str(c)
-
-
-def split_views(data_dir, plan: dict) -> tuple[list[str], list[str], list[str]]:
-    """(train, val, test) sample keys of the baked views, by each sample's camera role in the plan."""
-    from ...model.dataset import folder
-    from ...model.learn import fit as mfit
-    m = folder.open_folder(data_dir, scenes=True)
-    by_cam: dict[str, list[str]] = {}
-    unknown = []
-    for key, meta in m["samples"].items():
-        cam = sample_camera(meta)
-        if cam not in plan["cameras"]:
-            unknown.append(key)
-            continue
-        by_cam.setdefault(cam, []).append(key)
-    if unknown:
-        raise UserError(f"{Path(data_dir) / 'manifest.json'}: sample(s) {', '.join(unknown[:5])} name no camera of "
-                        f"the plan ({', '.join(plan['cameras'])}); bake the views into an empty folder")
-    roles_ = plan["cameras"]
-    return mfit.split_views(by_cam, test_cameras=[c for c, r in roles_.items() if r == "test"],
-                            val_cameras=[c for c, r in roles_.items() if r == "val"])

@@ -1,20 +1,21 @@
 """The SSGI render path: for each frame, render EEVEE's passes -> predict -> composite with the artist's tree
 -> write the frame where the scene's output settings say, in their format.
 
-    session = RenderSession(scene, frames=[1, 2, 3], model=None, out=None)   # checks everything first
-    summary = session.run()                                                # or: for info in session.frames()
+    summary = run(RenderConfig(blend="shot.blend", frames=[1, 2, 3]))      # the stage (cli.py render)
+    session = RenderSession(scene, frames=[1, 2, 3], model=None, out=None)   # an open scene; checks first
+    summary = session.run()                                                # or: for info in session.iter_frames()
 
 Per frame:
 1. ``passes.render_gbuffer(scene, groups)`` renders the direct-only G-buffer the model needs (plus depth and
    EEVEE's Combined for the world pixels). Every scene setting it changes (engine, EEVEE settings, light
-   data, view-layer passes, output format) is put back afterwards by ``preserved()``.
+   data, view-layer passes, output format) is put back afterwards by ``scene_state.preserved()``.
 2. The model predicts linear HDR RGB. Pixels with no geometry (depth at the camera's clip end, or zero alpha)
    keep EEVEE's Combined colour. Alpha is not predicted: the node takes it from its Image input.
 3. The prediction goes into the "SSGI Prediction" image (node.py). The pass render's result is saved as a
    multilayer EXR and loaded into Image nodes that stand in for the tree's Render Layers nodes (an Image
    node with a multilayer EXR has the same pass sockets; "Image" is called "Combined" there), so nodes that
    mix other passes keep working; the Render Layers nodes are muted, which makes the render composite-only
-   (no 3D render). The tree is put back afterwards.
+   (no 3D render). The tree is put back afterwards (blender/compositor.py ``standins``).
 4. The composite (``Render Result``) is saved with the scene's image settings to a temporary name and
    renamed into place (``scene.render.frame_path``, or ``out``).
 
@@ -29,6 +30,7 @@ import contextlib
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -37,10 +39,12 @@ import numpy as np
 from ...model import channels as ch, cliargs, files
 from ...model.errors import UserError
 from ..blender import node as ssgi_node
+from ..blender.compositor import save_multilayer, standins
+from ..blender.predictor import load_model, missing_passes, pass_label
+from ..blender.scene_state import preserved
 
 # how many SSGI renders are running right now (the render_pre handler leaves those alone)
 _ACTIVE = 0
-_PREDICTORS: dict = {}
 WORLD_DEPTH_FRACTION = 0.999  # depth >= this * clip_end: no geometry (EEVEE writes clip_end there)
 
 
@@ -52,181 +56,6 @@ def peak_rss_mb() -> float:
 
 def log(msg: str) -> None:
     print(f"SSGI: {msg}", file=sys.stderr, flush=True)
-
-
-# --- the model ---------------------------------------------------------------------------------------------
-
-def load_model(path: Path):
-    """A cached Predictor for ``path`` (reloaded when the file changes). UserError names a missing/bad file."""
-    path = Path(path)
-    fault = cliargs.model_file_fault(path)
-    if fault:
-        hint = " (the shipped default model)" if path == ssgi_node.DEFAULT_MODEL else ""
-        raise UserError(f"{path}: {fault}{hint}; set the SSGI node's model or pass --model")
-    try:
-        from ...model.infer import predictor as infer
-    except ImportError as e:  # torch missing in this Blender
-        from ..runtime import deps
-        raise UserError(deps.missing_message("The SSGI node") + f" ({e})") from None
-    key = (str(path.resolve()), path.stat().st_mtime_ns)
-    pred = _PREDICTORS.get(key)
-    if pred is None:
-        threads = None
-        try:
-            from .. import preferences
-            if preferences.prefs() is not None:
-                threads = preferences.torch_threads()
-        except Exception:
-            threads = None
-        pred = infer.load_predictor(path, num_threads=threads)
-        _PREDICTORS.clear()
-        _PREDICTORS[key] = pred
-    return pred
-
-
-def missing_passes(scene, spec) -> list[str]:
-    """View-layer pass flags that ``spec`` needs and the first view layer (the one the passes come from)
-    lacks."""
-    vl = scene.view_layers[0]
-    return [flag for flag in ch.required_passes(tuple(spec)) if not getattr(vl, flag, False)]
-
-
-def pass_label(flag: str) -> str:
-    """'use_pass_diffuse_direct' -> 'Diffuse Direct (use_pass_diffuse_direct)'."""
-    try:
-        name = bpy.types.ViewLayer.bl_rna.properties[flag].name
-    except KeyError:
-        name = flag
-    return f"{name} ({flag})"
-
-
-# --- putting the scene back ---------------------------------------------------------------------------------
-
-_SIMPLE = {"BOOLEAN", "INT", "FLOAT", "STRING", "ENUM"}
-
-
-def _snapshot(struct) -> dict:
-    out = {}
-    for p in struct.bl_rna.properties:
-        if p.is_readonly or p.identifier == "rna_type":
-            continue
-        if p.type in _SIMPLE or (p.type == "POINTER" and isinstance(getattr(struct, p.identifier, None), bpy.types.ID)):
-            try:
-                v = getattr(struct, p.identifier)
-            except AttributeError:
-                continue
-            if p.type in ("INT", "FLOAT", "BOOLEAN") and getattr(p, "array_length", 0):
-                v = tuple(v)
-            out[p.identifier] = v
-    return out
-
-
-def _restore(struct, saved: dict) -> None:
-    for k, v in saved.items():
-        try:
-            cur = getattr(struct, k)
-            if isinstance(v, tuple):
-                cur = tuple(cur)
-            if cur != v:
-                setattr(struct, k, v)
-        except (AttributeError, TypeError, ValueError, RuntimeError):
-            pass  # read-only in this state, or an enum item that no longer exists: leave it
-
-
-def _structs(scene) -> list:
-    r = scene.render
-    out = [scene, r, r.image_settings, scene.eevee, scene.view_settings, scene.display_settings]
-    out += list(scene.view_layers)
-    out += list({o.data for o in scene.objects if o.type == "LIGHT"})
-    out += [o for o in scene.objects if o.type == "LIGHT_PROBE"]
-    if scene.world is not None:
-        out.append(scene.world)
-    return out
-
-
-@contextlib.contextmanager
-def preserved(scene):
-    """Put back every plain setting of the scene, its render/EEVEE/colour settings, view layers, light data and
-    world on exit, and the current frame."""
-    frame = scene.frame_current
-    saved = [(s, _snapshot(s)) for s in _structs(scene)]
-    # image_settings is restored twice: a file format change resets colour depth/codec, so format first
-    try:
-        yield
-    finally:
-        for s, v in saved:
-            _restore(s, v)
-        _restore(scene.render.image_settings, saved[2][1])
-        if scene.frame_current != frame:
-            scene.frame_set(frame)
-
-
-# --- the composite-only pass ----------------------------------------------------------------------------
-
-def _standin_socket(rl_socket_name: str) -> str:
-    return "Combined" if rl_socket_name == "Image" else rl_socket_name
-
-
-@contextlib.contextmanager
-def standins(scene, exr_path: str | None):
-    """Mute the compositor's Render Layers nodes (so the render is composite-only) and feed their links from
-    Image nodes showing the pass render's multilayer EXR; put the tree back on exit."""
-    tree = scene.compositing_node_group
-    rls = [n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers" and not n.mute]
-    saved_links = [(l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
-                   for l in tree.links if l.from_node in rls]
-    added, image = [], None
-    try:
-        if exr_path and rls:
-            image = bpy.data.images.load(exr_path, check_existing=False)
-            image.name = ".SSGI passes"
-        for rl in rls:
-            rl.mute = True
-            if image is None:
-                continue
-            st = tree.nodes.new("CompositorNodeImage")
-            added.append(st)
-            st.image = image
-            st.location = (rl.location.x, rl.location.y - 400)
-            try:
-                st.layer = rl.layer
-            except TypeError:
-                pass
-            for l in [l for l in tree.links if l.from_node == rl]:
-                out = st.outputs.get(_standin_socket(l.from_socket.name))
-                if out is not None:
-                    tree.links.new(out, l.to_socket)
-        yield
-    finally:
-        for st in added:
-            tree.nodes.remove(st)
-        for rl in rls:
-            rl.mute = False
-        for fn, fs, tn, ts in saved_links:
-            a, b = tree.nodes.get(fn), tree.nodes.get(tn)
-            if a is None or b is None:
-                continue
-            fsock = next((s for s in a.outputs if s.identifier == fs), None)
-            tsock = next((s for s in b.inputs if s.identifier == ts), None)
-            if fsock is not None and tsock is not None and not any(
-                    l.from_socket == fsock and l.to_socket == tsock for l in tree.links):
-                tree.links.new(fsock, tsock)
-        if image is not None:
-            bpy.data.images.remove(image)
-
-
-def save_multilayer(scene, path: str) -> None:
-    """Save the current Render Result (all passes, 32-bit) as a multilayer EXR; output settings put back."""
-    ims = scene.render.image_settings
-    saved = _snapshot(ims)
-    try:
-        ims.media_type = "MULTI_LAYER_IMAGE"
-        ims.file_format = "OPEN_EXR_MULTILAYER"
-        ims.color_depth = "32"
-        bpy.data.images["Render Result"].save_render(path, scene=scene)
-    finally:
-        _restore(ims, saved)
-        _restore(ims, saved)
 
 
 def world_mask(groups: dict, clip_end: float) -> np.ndarray:
@@ -418,10 +247,76 @@ class RenderSession:
                 "cancelled": self.cancelled, "per_frame": res}
 
 
-def frames_of(scene, animation: bool) -> list[int]:
-    if not animation:
-        return [scene.frame_current]
-    return list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
+# --- the stage (cli.py render) ----------------------------------------------------------------------------
+
+# image formats by file extension, as `blender -F` names them (EXR: single layer, as -F EXR)
+FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".exr": "OPEN_EXR", ".tif": "TIFF", ".tiff": "TIFF",
+           ".bmp": "BMP", ".webp": "WEBP", ".tga": "TARGA", ".hdr": "HDR", ".jp2": "JPEG2000", ".dpx": "DPX",
+           ".cin": "CINEON", ".rgb": "IRIS"}
+_SAME = {"OPEN_EXR_MULTILAYER": "OPEN_EXR", "TARGA_RAW": "TARGA"}  # formats an extension already stands for
+
+
+def format_from_out(scene, out: str | None) -> str | None:
+    """Let a known image extension of ``out`` choose the output format (the .blend is never written). Returns
+    the format switched to, or None when the scene's format already matches or the extension is not known."""
+    fmt = FORMATS.get(Path(out.replace("#", "0")).suffix.lower()) if out else None
+    im = scene.render.image_settings
+    if fmt is None or _SAME.get(im.file_format, im.file_format) == fmt:
+        return None
+    im.media_type = "IMAGE"  # a video scene offers no image formats until its media type is an image
+    im.file_format = fmt
+    return fmt
+
+
+
+@dataclass
+class RenderConfig:
+    """What ``run`` renders; the defaults are those of ``cli.py render``."""
+    blend: str  # the .blend file (never written)
+    out: str | None = None  # output path, '#' for the frame number (None: the scene's output path)
+    frames: list | None = None  # frames to render (None: the scene's current frame)
+    model: str | None = None  # model checkpoint (None: the SSGI node's, the scene's or the shipped model)
+    scene: str | None = None  # scene name (None: the file's active scene)
+    samples: int | None = None  # EEVEE samples for the passes (None: the scene's render samples)
+    setup: bool = False  # run Set up SSGI first (enable the passes, insert the node)
+    save_passes: str | None = None  # also write each frame's G-buffer as SAVE_PASSES/NNNNNN.exr
+
+    def check(self) -> None:
+        from ..blender.blendfile import check_blend
+        check_blend(self.blend)
+        if self.frames is not None and not list(self.frames):
+            raise UserError("--frames: no frames to render")
+        if self.samples is not None and self.samples < 1:
+            raise UserError(f"--samples {self.samples}: must be >= 1")
+
+
+def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
+    """Open the .blend, (set up SSGI), render the frames through the SSGI node; returns the session's summary.
+    ``progress(dict)`` after each frame (done, total, progress, frame, path); ``should_stop()`` between frames."""
+    from ..blender.blendfile import open_blend, pick_scene
+    from ..blender.compositor import setup_scene
+
+    cfg.check()
+    blend = Path(cfg.blend).expanduser()
+    open_blend(cfg.blend)
+    scene = pick_scene(blend, cfg.scene)
+    if cfg.setup:
+        setup_scene(scene, cfg.model)
+    before = scene.render.image_settings.file_format
+    if format_from_out(scene, cfg.out):
+        print(f"SSGI render: --out {cfg.out}: writing {scene.render.image_settings.file_format} (the scene's "
+              f"output format is {before})", file=sys.stderr)
+    frames = list(cfg.frames) if cfg.frames else [scene.frame_current]
+    session = RenderSession(scene, frames, model=cfg.model, out=cfg.out, samples=cfg.samples,
+                            save_passes=cfg.save_passes)
+    print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path}",
+          file=sys.stderr)
+    for info in session.iter_frames(should_stop):
+        if progress is not None:
+            n = len(session.results)
+            progress(dict(done=n, total=len(frames), progress=n / len(frames), frame=info["frame"],
+                          path=info.get("path"), message=f"frame {info['frame']} done"))
+    return session.summary()
 
 
 # --- plain renders ---------------------------------------------------------------------------------------

@@ -6,9 +6,7 @@ from pathlib import Path
 
 import bpy
 
-
-def _abspath(p: str) -> str:
-    return bpy.path.abspath(p) if p else p
+from ..paths import required_path, scene_path
 
 
 def config_from_scene(scene):
@@ -16,7 +14,7 @@ def config_from_scene(scene):
     from ...model.learn.train import TrainConfig
 
     s = scene.ssgi
-    data = _abspath(s.dataset_dir).rstrip("/\\") or "."
-    out = _abspath(s.train_out) or str(Path(data) / "model.pt")
+    data = required_path(s.dataset_dir, "dataset folder")
+    out = scene_path(s.train_out, "Save model as") or str(Path(data) / "model.pt")
     return TrainConfig(data=data, out=out, variant=s.train_variant, minutes=float(s.train_minutes),
                        resume=bool(s.train_resume), command=f"Blender Train operator: {bpy.data.filepath or 'unsaved file'}")

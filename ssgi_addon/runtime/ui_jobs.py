@@ -13,7 +13,6 @@ model after a fit or a training) does so in ``on_done``, on the main thread.
 from __future__ import annotations
 
 import json
-import os
 import shlex
 import time
 from pathlib import Path
@@ -21,6 +20,7 @@ from pathlib import Path
 import bpy
 
 from ...model.errors import UserError
+from ..paths import required_path
 from . import jobs, launcher
 
 BAKE, RENDER, TRAIN, FIT, REPORT = "bake", "render", "train", "fit", "report"
@@ -35,18 +35,10 @@ def _set_model(scene_name: str, path) -> None:
 
 # ------------------------------------------------------------------------------------------------ bake
 
-def _abspath(p: str) -> str:
-    """The dataset folder setting as an absolute path; a relative one needs a saved .blend file."""
-    out = bpy.path.abspath(p) if p else ""
-    if not out or (p.startswith("//") and not bpy.data.filepath) or not os.path.isabs(out):
-        raise UserError(f"dataset folder {p!r}: save the .blend file first, or choose an absolute folder")
-    return out.rstrip("/\\") or "/"
-
-
 def bake(scene) -> jobs.StepJob:
     """The Bake Dataset job of ``scene``'s settings (not started)."""
     s = scene.ssgi
-    out = _abspath(s.dataset_dir)
+    out = required_path(s.dataset_dir, "dataset folder")
     # with Denoise ticked the panel greys the target out: the reference takes exactly Reference Samples
     steps = _bake_steps(out, s.bake_count, s.bake_seed, (s.bake_width, s.bake_height), s.bake_ref_samples,
                         s.bake_denoise, 0.0 if s.bake_denoise else s.bake_ref_target_db)

@@ -130,11 +130,11 @@ def test_shards_then_merge_equal_the_unsharded_bake(baked, tmp_path):
     from ssgi.ssgi_addon.pipeline import bake
     d = Path({str(d)!r})
     kw = dict(count=2, seed=3, size=(64, 36), ref_samples=2)
-    print(bake.bake(d, shard=(0, 2), **kw))
+    print(bake.run(bake.BakeConfig(d, shard=(0, 2), **kw)))
     # shard 1 (re)started beside a running shard 0 must not delete shard 0's file in flight
     (d / ".000000.exr.424242.tmp").write_bytes(b"shard 0 writing")
     (d / ".000001.exr.424242.tmp").write_bytes(b"shard 1, killed")
-    print(bake.bake(d, shard=(1, 2), **kw))
+    print(bake.run(bake.BakeConfig(d, shard=(1, 2), **kw)))
     """
     run_py(code)
     assert (d / ".000000.exr.424242.tmp").exists() and not (d / ".000001.exr.424242.tmp").exists()
@@ -360,23 +360,23 @@ def test_world_pass_holds_the_skys_unoccluded_light(direct_renders):
 
 @pytest.fixture(scope="module")
 def references(tmp_path_factory):
-    """bake.render_reference on room 3 at 32x18: low and unreachable targets, a fixed count, and two
+    """reference.render_reference on room 3 at 32x18: low and unreachable targets, a fixed count, and two
     references from disjoint seeds to check the estimated agreement against the measured one."""
     out = tmp_path_factory.mktemp("ref") / "r.json"
     code = f"""
     import json, bpy
     from ssgi.model import metrics
-    from ssgi.ssgi_addon.pipeline import bake
+    from ssgi.ssgi_addon.blender import reference
     from ssgi.ssgi_addon.blender import passes, room
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     room.build_room(3, sc)
     passes.set_resolution(sc, 32, 18)
     res = {{}}
-    res["low"] = bake.render_reference(sc, 1024, 5.0, seed=1)[1]
-    res["fixed"] = bake.render_reference(sc, 64, None, seed=1)[1]
-    a, ia = bake.render_reference(sc, 1024, 99.0, seed=1)
-    b, ib = bake.render_reference(sc, 1024, 99.0, seed=2)
+    res["low"] = reference.render_reference(sc, 1024, 5.0, seed=1)[1]
+    res["fixed"] = reference.render_reference(sc, 64, None, seed=1)[1]
+    a, ia = reference.render_reference(sc, 1024, 99.0, seed=1)
+    b, ib = reference.render_reference(sc, 1024, 99.0, seed=2)
     res.update(high=ia, high2=ib, measured=metrics.psnr(a, b), std=float(a.std()))
     json.dump(res, open({str(out)!r}, "w"))
     """
@@ -488,3 +488,21 @@ def test_bake_operator_steps_cancels_and_resumes(tmp_path):
     assert "ssgi_relative_unsaved" in relative and "save the .blend file first" in relative
     assert "ref_samples=2" in other and "not ref_samples=3" in other
     assert created is False and names == ["000000", "000001", "000002"] and r["scenes_at_end"] == 2
+
+
+def test_one_rule_resolves_the_scenes_path_settings(factory_bpy, tmp_path):
+    """ssgi_addon/paths.py, which every operator uses for dataset_dir and the other path settings: // needs a
+    saved .blend (then it is beside it), ~ is the home folder, a bare relative path is refused, empty is None."""
+    from ssgi.model.errors import UserError
+    from ssgi.ssgi_addon import paths
+    bpy = factory_bpy
+    for value in ("//ssgi_dataset/", "ssgi_dataset"):
+        with pytest.raises(UserError, match="save the .blend file first"):
+            paths.scene_path(value, "dataset folder")
+    assert paths.scene_path("", "dataset folder") is None
+    with pytest.raises(UserError, match="dataset folder: not set"):
+        paths.required_path("", "dataset folder")
+    assert paths.scene_path(str(tmp_path) + "/", "dataset folder") == str(tmp_path)
+    assert paths.scene_path("~/x", "Save model as") == os.path.join(os.path.expanduser("~"), "x")
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
+    assert paths.required_path("//ssgi_dataset/", "dataset folder") == str(tmp_path / "ssgi_dataset")

@@ -11,7 +11,7 @@ import pytest
 from ssgi.model.learn import checkpoint
 
 from ..conftest import clean, run_cli, run_py
-from ..unit.test_fit import ABLATE_ALL, generic  # noqa: F401  (generic: a fixture)
+from ..unit.test_fit import ABLATE_ALL, generic, views  # noqa: F401  (generic, views: fixtures)
 
 
 # ------------------------------------------------------------------------------------------ a real scene
@@ -90,7 +90,7 @@ for o in sc.objects:
                            role=o["ssgi_fit_role"])
 json.dump(dict(poses=poses, views=res, lens=cam.data.name), open({str(out)!r}, "w"))
 ''', timeout=120)
-    from ssgi.ssgi_addon.pipeline import fit as sfit
+    from ssgi.ssgi_addon.blender import views as sfit
     info = json.loads(out.read_text())
     plan = json.loads((work / "views_plan.json").read_text())
     assert len(info["views"]) == 3
@@ -109,7 +109,7 @@ def test_jittered_cameras_follow_their_animated_scene_camera(tmp_path):
     out = tmp_path / "follow.json"
     run_py(f'''
 import bpy, json, math
-from ssgi.ssgi_addon.pipeline import fit as sfit
+from ssgi.ssgi_addon.blender import views as sfit
 bpy.ops.wm.read_factory_settings(use_empty=True)
 sc = bpy.context.scene
 bpy.ops.mesh.primitive_plane_add(size=20, location=(0, 0, 0))
@@ -244,3 +244,26 @@ json.dump(r, open({str(res)!r}, "w"))
     assert f"Inputs: {', '.join(r['inputs'])}" in r["done_labels"]
     verdict = checkpoint.load(out)["fit"]["verdict"]
     assert any(l and l in verdict for l in r["done_labels"][1:]), r["done_labels"]
+
+
+def test_fit_stage_runs_from_python_with_a_config(views, generic, tmp_path):
+    """The fit stage without argparse: a FitSceneConfig on views baked before (roles derived from their
+    cameras) -> pipeline.fit.run -> the summary; the held-out views are those of the derived plan's cameras."""
+    from ssgi.model.learn import fit
+    from ssgi.ssgi_addon.blender import views as fviews
+    from ssgi.ssgi_addon.pipeline import fit as sfit
+    from ssgi.ssgi_addon.pipeline import fit as sfit
+    out = tmp_path / "stage.pt"
+    events = []
+    cfg = sfit.FitSceneConfig(out=str(out), data=str(views), minutes=0.25, init=str(generic), threads=1, crop=32,
+                              min_run_s=1.0, drop_tol=ABLATE_ALL, seed=1, command="test_fit_stage")
+    res = sfit.run(cfg, progress=events.append, log=lambda m: None)
+    assert res["status"] == "done" and out.is_file() and res["views"] == str(views) and res["bake_minutes"] == 0
+    assert res["init"] == str(generic) and events and events[-1]["phase"] == "done"
+    plan = fviews.derive_plan(views, seed=1)
+    cam = {k: str(v["camera"]) for k, v in json.loads((views / "manifest.json").read_text())["samples"].items()}
+    fit_info = checkpoint.load(out)["fit"]
+    for role in ("val", "test"):
+        assert sorted(fit_info["views"][role]) == sorted(k for k, c in cam.items() if plan["cameras"][c] == role)
+    rep = json.loads(fit.report_paths(out)[0].read_text())
+    assert rep["total_minutes"] == pytest.approx(res["total_minutes"]) and rep["bake_minutes"] == 0

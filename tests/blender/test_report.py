@@ -10,6 +10,23 @@ from ssgi.model.learn import checkpoint, network
 
 from ..conftest import run_cli, run_py
 
+def test_report_stage_config_refuses_bad_settings_before_any_work(tmp_path):
+    from ssgi.model.errors import UserError
+    from ssgi.ssgi_addon.pipeline.report import ReportConfig
+    m = tmp_path / "m.pt"
+    m.write_bytes(b"x")
+    for kw, msg in ((dict(models=[str(m)]), "--data DIR"),
+                    (dict(models=[str(tmp_path / "nope.pt")], data=str(tmp_path)), "nope.pt: no such file"),
+                    (dict(models=[str(m)], data=str(tmp_path / "nowhere")), "no such folder"),
+                    (dict(models=[str(m)], data=str(tmp_path), spp=(4, 2)), "ascending"),
+                    (dict(models=[str(m)], data=str(tmp_path), split="train"), "--split"),
+                    (dict(models=[str(m)], data=str(tmp_path), max_scenes=0), "--max-scenes"),
+                    (dict(models=[str(m)], data=str(tmp_path), sizes=()), "--no-scaling")):
+        with pytest.raises(UserError, match=msg):
+            ReportConfig(out=str(tmp_path / "out"), **kw).check()
+    assert not (tmp_path / "out").exists()
+
+
 # ------------------------------------------------------------------------------------------ end to end
 
 _ROOMS = r'''
@@ -113,7 +130,7 @@ def test_report_md_has_the_table_verdicts_and_settings(e2e):
 def test_dataset_split_follows_the_models_checkpoint(e2e):
     """The default evaluation scenes are the validation scenes a model records for this very dataset."""
     from ssgi.model.dataset import folder
-    from ssgi.ssgi_addon.pipeline import report as rr
+    from ssgi.ssgi_addon.pipeline import report_scenes as rr
     d = e2e["out"] / "data"
     sha = folder.manifest_sha256(d)
     ck = {"dataset": {"manifest_sha256": sha, "split": {"val": ["room4"]}}}
@@ -146,6 +163,34 @@ def test_cli_errors_name_the_fault(tmp_path, tiny_models):
     p = run_cli("report", "--data", str(tmp_path), "--models", str(tiny_models[0]), "--out", str(tmp_path / "o"),
                 "--spp", "4,2", check=False)
     assert p.returncode == 2 and "ascending" in p.stderr
+
+
+_STAGE = r'''
+import json, sys
+from ssgi.ssgi_addon.pipeline import report
+data, model, out = sys.argv[1], sys.argv[2], sys.argv[3]
+cfg = dict(models=[model], data=data, split="all", max_scenes=1, spp=(1,), eevee_samples=1, eevee_high_samples=1,
+           scaling=False, temporal_frames=0, fit_baseline=False)
+stopped = report.run(report.ReportConfig(out=out + "/stopped", **cfg), should_stop=lambda: True)
+events = []
+res = report.run(report.ReportConfig(out=out + "/done", **cfg), progress=events.append)
+print("STAGE" + json.dumps(dict(stopped=stopped, res=res, events=events), default=str))
+'''
+
+
+def test_report_stage_runs_from_python_with_progress_and_stop(e2e, tmp_path):
+    """The report stage without argparse: a ReportConfig -> pipeline.report.run -> the summary; progress(dict)
+    after every step, in order; should_stop() between scenes ends it with report.partial.json and no report."""
+    p = run_py(_STAGE, str(e2e["out"] / "data"), str(e2e["models"][0]), str(tmp_path), timeout=400)
+    r = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("STAGE"))[len("STAGE"):])
+    assert r["stopped"]["cancelled"] is True and r["stopped"]["scenes"] == [] and r["stopped"]["files"] == {}
+    assert not (tmp_path / "stopped" / "report.md").exists()
+    res = r["res"]
+    assert res["cancelled"] is False and res["scenes"] == ["room3"] and (tmp_path / "done" / "report.md").is_file()
+    raw = json.loads((tmp_path / "done" / "report.json").read_text())
+    assert raw["command"] == "ssgi_addon.pipeline.report.run" and raw["settings"]["spp"] == [1]
+    ps = [e["progress"] for e in r["events"]]
+    assert len(ps) >= 7 and ps == sorted(ps) and 0 < ps[0] < ps[-1] <= 1 and all(e["phase"] == "report" for e in r["events"])
 
 
 # ------------------------------------------------------------------------------------------ the Report button

@@ -29,7 +29,7 @@ import bpy, numpy as np
 import ssgi
 from ssgi.ssgi_addon.blender import passes
 from ssgi.ssgi_addon.pipeline import render as R
-from ssgi.ops.node_ops import setup_scene
+from ssgi.ssgi_addon.blender.compositor import setup_scene
 out_dir, model = sys.argv[1], sys.argv[2]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 ssgi.register()

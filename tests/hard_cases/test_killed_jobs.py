@@ -63,13 +63,13 @@ import os, resource, sys
 from ssgi.ssgi_addon.pipeline import bake
 from ssgi.model.errors import UserError
 out, how = sys.argv[1], sys.argv[2]
-def progress(done, total, info):
-    if done == 1 and how == "full":
+def progress(info):
+    if info["done"] == 1 and how == "full":
         resource.setrlimit(resource.RLIMIT_FSIZE, (0, resource.RLIM_INFINITY))  # SIGXFSZ: Python ignores it
-    elif done == 1:
+    elif info["done"] == 1:
         os.rename(out, out + ".moved")
 try:
-    bake.bake(out, count=3, seed=11, size=(32, 18), ref_samples=2, progress=progress)
+    bake.run(bake.BakeConfig(out, count=3, seed=11, size=(32, 18), ref_samples=2), progress=progress)
 except UserError as e:
     print(e)
     sys.exit(2)

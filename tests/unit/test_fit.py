@@ -243,8 +243,21 @@ def test_fit_cancel_writes_nothing(views, tmp_path):
     assert res["status"] == "cancelled" and not out.exists() and not fit.report_paths(out)[0].exists()
 
 
+def test_fit_stage_config_refuses_bad_settings_before_any_work(tmp_path):
+    from ssgi.ssgi_addon.pipeline.fit import FitSceneConfig
+    for kw, msg in ((dict(out=str(tmp_path / "m.txt"), data=str(tmp_path)), "must end in .pt"),
+                    (dict(out=str(tmp_path / "no" / "m.pt"), data=str(tmp_path)), "does not exist"),
+                    (dict(out=str(tmp_path / "m.pt")), "--blend FILE"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), views=3), "at least 4 views"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), init=str(tmp_path / "x.pt")), "no such model"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet"]]), "--ladder")):
+        with pytest.raises(UserError, match=msg):
+            FitSceneConfig(**kw).check()
+    assert not list(tmp_path.iterdir())
+
+
 def test_view_counts_and_roles():
-    from ssgi.ssgi_addon.pipeline import fit as sfit
+    from ssgi.ssgi_addon.blender import views as sfit
     assert sfit.view_counts(24, 1, 1) == (1, 23)
     nf, nj = sfit.view_counts(24, 48, 1)
     assert nf == 3 and (1 + nj) * nf >= 24

@@ -1,0 +1,128 @@
+"""`cli.py bake`, `verify`, `merge`, `preview`: the bake stage (ssgi_addon/pipeline/bake.py) and the dataset
+folder's tools (model/dataset/) behind argparse.
+
+    cli.py bake --out DIR [--count 10] [--seed 0] [--size 240x135] [--ref-samples N] [--denoise] [--shard i/n]
+    cli.py bake --out DIR --scenes a.blend b.blend [--frames 1-48]
+    cli.py verify DIR | cli.py merge DIR | cli.py preview DIR --out SHEET.png
+"""
+from __future__ import annotations
+
+import sys
+
+from ...model import cliargs
+from ...model.errors import UserError
+from ..blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
+from ..pipeline.bake import BakeConfig
+
+
+def run_bake(args) -> dict:
+    from tqdm import tqdm
+
+    from ...model.dataset.exrio import stdout_to_stderr
+    from ..pipeline import bake
+
+    cfg = BakeConfig(out=args.out, count=args.count, seed=args.seed, size=tuple(args.size),
+                     ref_samples=args.ref_samples, ref_target_db=args.ref_target_db, denoise=args.denoise,
+                     eevee_samples=args.eevee_samples, shard=args.shard, scenes=args.scenes, frames=args.frames)
+    bar = None
+
+    def on_start(ev):  # the bar shows from the start, not after the first (minutes-long) sample
+        nonlocal bar
+        bar = tqdm(total=ev["todo"], file=sys.stderr, unit="sample", desc="bake")
+
+    def progress(info):
+        post = dict(eevee=f"{info['eevee_s']:.1f}s", cycles=f"{info['cycles_s']:.1f}s", spp=info["ref_samples"])
+        if info["ref_agreement_db"] is not None:
+            post["dB"] = f"{info['ref_agreement_db']:.1f}"
+        bar.set_postfix(post)
+        bar.update(1)
+
+    with stdout_to_stderr():
+        res = bake.run(cfg, progress=progress, on_start=on_start)
+    if bar:
+        bar.close()
+    print(f"bake: {res['baked']} baked, {res['skipped']} already complete, {res['total']} in all -> {res['out']}",
+          file=sys.stderr)
+    return res
+
+
+def run_verify(args) -> dict:
+    from ...model.dataset import folder as ds
+    problems = ds.verify(args.folder)
+    for p in problems:
+        print(f"verify: {p}", file=sys.stderr)
+    n = 0
+    try:
+        n = len(ds.open_folder(args.folder)["samples"])
+    except UserError:
+        pass
+    if problems:
+        raise UserError(f"{args.folder}: {len(problems)} problem(s) found (listed above)")
+    print(f"verify: {args.folder}: {n} samples, all good", file=sys.stderr)
+    return {"folder": str(args.folder), "samples": n, "problems": problems}
+
+
+def run_merge(args) -> dict:
+    from ...model.dataset import folder as ds
+    res = ds.merge(args.folder)
+    print(f"merge: {res['samples']} samples from {len(res['shards'])} shard manifest(s)", file=sys.stderr)
+    return res
+
+
+def run_preview(args) -> dict:
+    from ...model.dataset import preview
+    res = preview.preview(args.folder, args.out, max_samples=args.max)
+    print(f"preview: {res['sheet']} ({res['samples']} samples)", file=sys.stderr)
+    return res
+
+
+def register_cli(sub) -> None:
+    D = BakeConfig
+    p = sub.add_parser("bake", help="bake random rooms (or your .blend scenes) into an EXR dataset",
+                       description="Bake EEVEE direct-only G-buffer passes and a Cycles reference per sample into "
+                                   "DIR/000000.exr ... + DIR/manifest.json. Run the same command again to resume.")
+    p.add_argument("--out", required=True, metavar="DIR", help="dataset folder (created if missing)")
+    p.add_argument("--count", type=cliargs.nonnegative_int, default=D.count,
+                   help="number of random rooms (default %(default)s)")
+    p.add_argument("--seed", type=int, default=D.seed,
+                   help="seed of the first room; room i uses seed+i (default %(default)s)")
+    p.add_argument("--size", type=cliargs.parse_size, default=cliargs.Size(*D.size), metavar="WxH",
+                   help="image size (default %(default)s)")
+    p.add_argument("--ref-samples", type=cliargs.positive_int, default=D.ref_samples,
+                   help="Cycles samples per pixel of the reference: the most it may take to reach --ref-target-db, or "
+                        "exactly this many with --ref-target-db 0 or --denoise (default %(default)s)")
+    p.add_argument("--ref-target-db", type=cliargs.nonnegative_float, default=None, metavar="DB",
+                   help="render the raw reference as two halves of different seeds, doubling them until two such "
+                        "references would agree to DB dB PSNR (halves' PSNR + 3.01); 0: a fixed --ref-samples "
+                        f"(default {DEFAULT_REF_TARGET_DB:g}; with --denoise, 0)")
+    p.add_argument("--denoise", dest="denoise", action="store_true", default=D.denoise,
+                   help="denoise the reference with OpenImageDenoise (albedo+normal); recorded in the manifest. "
+                        f"Measured: {DENOISED_REF_SAMPLES} spp + OIDN agrees as well as {D.ref_samples} raw"
+                        + (" (default)" if D.denoise else ""))
+    p.add_argument("--no-denoise", dest="denoise", action="store_false",
+                   help="raw path-traced reference" + (" (default)" if not D.denoise else ""))
+    p.add_argument("--eevee-samples", type=cliargs.positive_int, default=D.eevee_samples,
+                   help="EEVEE render samples of the G-buffer (default %(default)s)")
+    p.add_argument("--shard", type=cliargs.parse_shard, default=None, metavar="i/n",
+                   help="bake only samples i, i+n, ... (0-based) into a shard manifest; join with `merge`")
+    p.add_argument("--scenes", nargs="+", metavar="FILE.blend", help="bake these scenes' cameras instead of rooms")
+    p.add_argument("--frames", type=cliargs.parse_frames, default=None, metavar="A-B",
+                   help="frames of --scenes to bake (default: each scene's current frame)")
+    p.set_defaults(func=run_bake)
+
+    v = sub.add_parser("verify", help="check a dataset folder", description="Check counts, channel names and "
+                       "sizes, finite values and the manifest against the files; names each problem file.")
+    v.add_argument("folder", metavar="DIR")
+    v.set_defaults(func=run_verify)
+
+    m = sub.add_parser("merge", help="join shard manifests into manifest.json",
+                       description="Join the manifests of `bake --shard i/n` runs in DIR into DIR/manifest.json.")
+    m.add_argument("folder", metavar="DIR")
+    m.set_defaults(func=run_merge)
+
+    pv = sub.add_parser("preview", help="write a contact sheet of a dataset",
+                        description="Per sample: the passes and the reference, tonemapped, in one PNG.")
+    pv.add_argument("folder", metavar="DIR")
+    pv.add_argument("--out", required=True, metavar="SHEET.png")
+    pv.add_argument("--max", type=cliargs.positive_int, default=12, help="samples to show (default 12)")
+    pv.set_defaults(func=run_preview)

@@ -1,0 +1,69 @@
+"""The learning stages, bpy-free: train, baseline, predict. Each takes a config and returns a summary dict;
+torch is imported only when a stage runs (``cli.py --help`` and the configs stay torch-free).
+
+    train(TrainConfig(data="ds/", out="m.pt", minutes=10), progress=..., should_stop=...)   # model/learn/train.py
+    baseline(BaselineConfig(data="ds/", out="linear.pt"))                                   # closed form
+    predict(PredictConfig(model="m.pt", input="000000.exr", out="pred.exr", png="pred.png"))
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...model import channels as ch
+from ...model.errors import UserError
+
+
+def train(cfg, progress=None, should_stop=None, log=None) -> dict:
+    """Train a network (``cfg``: model.learn.train.TrainConfig, which holds the defaults); ``progress(dict)``
+    after each logged step (epoch, loss, val_psnr, progress, eta_s); ``should_stop()`` before every batch."""
+    from ...model.learn.train import Trainer
+    return Trainer(cfg, log=log).run(callback=progress, should_stop=should_stop)
+
+
+@dataclass
+class BaselineConfig:
+    """The per-pixel linear-regression baseline, fitted in closed form on the training split."""
+    data: str  # dataset folder
+    out: str  # checkpoint to write
+    inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)
+    space: str = "linear"  # regress linear RGB (the seed's) or "log" (log1p RGB)
+    seed: int = 0  # split seed (the same as train's)
+    val_fraction: float = 0.2  # share of scenes for validation (the same as train's)
+    command: str | None = None
+
+    def check(self) -> None:
+        if self.space not in ("linear", "log"):
+            raise UserError(f"--space {self.space!r}: choose linear or log")
+        if not 0 < self.val_fraction < 1:
+            raise UserError(f"validation fraction must be in (0, 1) (got {self.val_fraction})")
+        ch.parse_spec(self.inputs)
+
+
+def baseline(cfg: BaselineConfig, log=None) -> dict:
+    from ...model.learn.baseline import run_baseline
+    cfg.check()
+    return run_baseline(cfg.data, cfg.out, inputs=cfg.inputs, space=cfg.space, seed=cfg.seed,
+                        val_fraction=cfg.val_fraction, command=cfg.command, log=log)
+
+
+@dataclass
+class PredictConfig:
+    """One prediction from a sample EXR that holds the model's input groups."""
+    model: str  # checkpoint (.pt) from train or baseline
+    input: str  # a sample EXR
+    out: str  # the prediction as an RGB float EXR (linear HDR)
+    png: str | None = None  # also a tonemapped sRGB preview
+    threads: int | None = None  # torch threads
+    tile: int | None = None  # tile size for big images (None: the Predictor's)
+
+    def check(self) -> None:
+        for name in ("threads", "tile"):
+            v = getattr(self, name)
+            if v is not None and v < 0:
+                raise UserError(f"--{name} {v}: must be >= 0 (0: the default)")
+
+
+def predict(cfg: PredictConfig) -> dict:
+    from ...model.infer.predict import predict_file
+    cfg.check()
+    return predict_file(cfg.model, cfg.input, cfg.out, png=cfg.png, threads=cfg.threads, tile=cfg.tile)
