@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...model import cliargs
 from ...model.errors import UserError
 
 PNG_NAMES = {"eevee": "eevee_direct.png", "ssgi": "ssgi.png", "ref": "cycles_reference.png"}

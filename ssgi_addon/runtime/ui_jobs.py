@@ -57,7 +57,8 @@ def _bake_steps(out, count, seed, size, ref_samples, denoise, ref_target_db):
     done, status = 0, "done"
     try:
         gen = pbake.iter_bake(out, count=count, seed=seed, size=size, ref_samples=ref_samples, denoise=denoise,
-                              scene=scratch, ref_target_db=ref_target_db)
+                              eevee_samples=pbake.BakeConfig.eevee_samples, scene=scratch,
+                              ref_target_db=ref_target_db)
         try:
             start = next(gen)  # checks the settings and the folder: errors come now
             todo = start["todo"]

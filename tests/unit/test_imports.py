@@ -87,17 +87,9 @@ def violations(root: Path) -> list[str]:
     return bad
 
 
-# Breaks that issue 13 names and another change removes ("Set up SSGI" moves out of ops/ into
-# ssgi_addon/blender/compositor.py), as "file: imports target" without the line. Strict: once the break is
-# gone, its entry must go too.
-KNOWN = {"ssgi_addon/commands/render.py: imports ops.node_ops.setup_scene"}
-
-
 def test_the_package_keeps_its_import_rules():
     assert len(package_files(ROOT)) > 40  # the walk does see the package
-    found = {":".join(v.split(":")[::2]) for v in violations(ROOT)}  # without the line numbers
-    assert found - KNOWN == set(), sorted(violations(ROOT))
-    assert KNOWN - found == set(), "fixed: remove these from KNOWN in tests/unit/test_imports.py"
+    assert violations(ROOT) == []
 
 
 def _tree(root: Path, files: dict[str, str]) -> Path:
