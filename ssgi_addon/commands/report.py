@@ -130,14 +130,14 @@ def _run(args) -> dict:
     import bpy
 
     from ...model.infer import predictor
-    from ...model.evaluate import report as rep
+    from ...model.evaluate import record, report
     from ..pipeline import report as rr
 
     t_start = time.perf_counter()
     if not args.data and not args.scenes:
         raise UserError("give --data DIR (a dataset's validation scenes) or --scenes FILE.blend ...")
     out = _out_dir(args.out)
-    machine = rep.machine()
+    machine = record.machine()
     notes: list[str] = []
     models = [Path(p) for p in args.models]
     preds = [(p, predictor.load_predictor(p, num_threads=args.threads)) for p in models]
@@ -169,7 +169,7 @@ def _run(args) -> dict:
            f"Cycles ladder {','.join(map(str, settings.spp))} spp")
 
     partial = out / "report.partial.json"
-    runner = rr.ReportRun(scenes, preds, settings, partial=lambda raw: rep.write_json(partial, raw))
+    runner = rr.ReportRun(scenes, preds, settings, partial=lambda raw: record.write_json(partial, raw))
     raw, images = runner.run()
     keys = [(k, p, pr.kind) for k, (p, pr) in runner._model_keys.items()]
     raw["default_model_key"] = default_model_key(keys)
@@ -179,11 +179,11 @@ def _run(args) -> dict:
         raw["temporal"] = runner.temporal(scenes[0], raw["default_model_key"], args.temporal_frames)
     machine["loadavg_end"] = list(os.getloadavg())
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-    raw.update(date=rep.now(), command="cli.py " + " ".join(shlex.quote(a) for a in argv),
-               machine=machine, versions=dict(rep.versions(), blender=bpy.app.version_string),
+    raw.update(date=record.now(), command="cli.py " + " ".join(shlex.quote(a) for a in argv),
+               machine=machine, versions=dict(record.versions(), blender=bpy.app.version_string),
                settings=settings.as_dict(), run_s=time.perf_counter() - t_start)
     raw["notes"] = raw.get("notes", []) + notes
-    files = rep.write_outputs(raw, images, out)
+    files = report.write_outputs(raw, images, out)
     if partial.exists():
         partial.unlink()
     rr.log(f"wrote {', '.join(files.values())} in {(time.perf_counter() - t_start) / 60:.1f} min")
