@@ -516,7 +516,7 @@ def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_abl
 
     from ssgi.model.dataset import folder as dataset, preview
     from ssgi.model.infer import bench
-    from ssgi.model.learn import fit
+    from ssgi.model.learn import ablation
     new = replace(ch.GROUPS["ao"], name="curvature", render_pass="Curvature", preview="grey", drop_rank=1)
     monkeypatch.setattr(ch, "GROUPS", {**ch.GROUPS, "curvature": new})
     monkeypatch.setattr(ch, "SAMPLE_GROUPS", ch.SAMPLE_GROUPS[:-2] + ("curvature",) + ch.SAMPLE_GROUPS[-2:])
@@ -527,5 +527,5 @@ def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_abl
     assert bench.synthetic_groups(4, 3)["curvature"].shape == (3, 4, 1)
     assert ch.drop_order()[:3] == ("world", "curvature", "scene")
     spec = ch.parse_spec("albedo,direct,curvature")
-    assert fit.droppable(spec, "residual") == ["curvature"]
+    assert ablation.droppable(spec, "residual") == ["curvature"]
     assert {g.name: g.render_pass for g in ch.GROUPS.values()}["curvature"] == "Curvature"
