@@ -17,7 +17,8 @@ from ssgi.model.infer import predictor
 from ssgi.model import images, normalize
 from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
-from ssgi.model.learn.train import TrainConfig, Trainer, evaluate
+from ssgi.model.learn.train import TrainConfig, Trainer
+from ssgi.model.learn.validation import evaluate
 
 from .conftest import clean, run_cli, run_py
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import files, images, metrics, normalize
 from ..infer import bench, predictor
-from ..learn.train import evaluate
+from ..learn.validation import evaluate
 
 
 def number(v):
@@ -44,7 +44,7 @@ def time_ms(net, size, repeats: int) -> float:
 
 def score(net, samples) -> dict:
     """PSNR, tonemapped PSNR and SSIM of the raw network output on ``samples`` (data.Sample), as training's
-    validation scores it (``train.evaluate``); the fit's decisions use this one. {} without samples."""
+    validation scores it (``validation.evaluate``); the fit's decisions use this one. {} without samples."""
     if not samples:
         return {}
     ev = evaluate(net, samples)

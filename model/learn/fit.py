@@ -52,7 +52,8 @@ from ..evaluate import fit_report
 from ..evaluate.fit_report import arch_label, number, plain
 from ..infer import bench
 from . import ablation, checkpoint, data, network
-from .train import TrainConfig, Trainer, evaluate
+from .train import TrainConfig, Trainer
+from .validation import evaluate
 
 TARGET_GAIN_DB = 2.0
 DEFAULT_TARGET_PSNR = 30.0
