@@ -4,10 +4,14 @@ Times the whole ``Predictor.predict`` (normalisation + network + output transfor
 synthetic inputs, the median of ``repeats`` runs after one warm-up, with ``torch.set_num_threads(threads)``.
 Untrained variants time the same as trained ones (the weights do not change the work). Peak memory is the
 growth of the process's peak resident set (VmHWM, reset through /proc/self/clear_refs) during the runs.
+
+``peak_memory`` measures one cold prediction in a fresh Python process instead (the report's scaling table):
+the child runs ``cold_prediction`` of this module.
 """
 from __future__ import annotations
 
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -76,6 +80,44 @@ def time_predictor(pred, w: int, h: int, repeats: int = 5) -> dict:
     peak = (_vm("VmHWM") - base) if ok else None
     return dict(ms=1000 * float(np.median(ts)), ms_min=1000 * float(np.min(ts)),
                 peak_mb=None if peak is None else max(0, peak) / 2 ** 20)
+
+
+_PEAK_CHILD = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import cli
+cli.load_package()
+from ssgi.model.infer import bench
+print("PEAK" + json.dumps(bench.cold_prediction(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]))))
+"""
+
+
+def cold_prediction(model, w: int, h: int, threads: int = 1) -> dict:
+    """Load ``model`` and predict once at ``w`` x ``h``: the growth of the process's peak resident set over
+    its resident set just before ``predict`` (model and inputs loaded), and the time of that first prediction.
+    Meaningful in a fresh process only (``peak_memory`` runs it in one)."""
+    from . import predictor
+
+    pred = predictor.load_predictor(model, num_threads=threads)
+    g = synthetic_groups(w, h)
+    before = _vm("VmRSS")
+    t = time.perf_counter()
+    pred.predict(g)
+    dt = time.perf_counter() - t
+    return dict(peak_mb=(_vm("VmHWM") - before) / 2 ** 20, first_ms=1000 * dt)
+
+
+def peak_memory(model, w: int, h: int, threads: int = 1, timeout: float = 600) -> dict:
+    """Peak memory of one prediction at ``w`` x ``h`` in a fresh Python process (nothing to reuse): the
+    process's peak resident set during ``predict`` minus its resident set just before (model and inputs
+    loaded). Also the time of that first, cold prediction. On a failure: ``peak_mb`` None and ``error``."""
+    root = Path(__file__).resolve().parents[2]
+    p = subprocess.run([sys.executable, "-c", _PEAK_CHILD, str(root), str(model), str(w), str(h), str(threads)],
+                       capture_output=True, text=True, timeout=timeout)
+    line = next((l for l in p.stdout.splitlines() if l.startswith("PEAK")), None)
+    if p.returncode != 0 or line is None:
+        return dict(peak_mb=None, error=(p.stderr.strip().splitlines() or ["?"])[-1][:200])
+    return json.loads(line[4:])
 
 
 def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, precisions=("fp32",), out=None) -> dict:

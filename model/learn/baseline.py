@@ -22,7 +22,7 @@ import torch
 from .. import channels as ch
 from . import checkpoint, data, network
 from .. import normalize
-from .train import evaluate, geometry
+from .validation import evaluate, geometry
 
 
 def fit(samples, space: str = "linear") -> tuple[np.ndarray, np.ndarray]:

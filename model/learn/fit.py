@@ -19,14 +19,15 @@ Method (one time budget, ``minutes``, shared by all phases; a run stops early wh
    per pixel, smallest first. Each gets an equal share of ``SIZE_SHARE`` of the budget and stops as soon as
    its val PSNR reaches the target. The first candidate that reaches the target is kept; when none does,
    the one with the best val PSNR is kept (and the report says the target was missed).
-3. **Input selection.** The kept network is fine-tuned briefly on its own inputs (the control) and, for each
-   input group the head does not need (``channels.drop_order``: `world` first, a whole second EEVEE render), with that group removed: the first layers' weights
-   for the removed channels are cut out (``drop_inputs``), the rest kept, and the same short fine-tune
-   follows. A group is dropped when the val PSNR without it is at most ``drop_tol`` dB below the control's.
-   Drops accumulate (each later trial starts from the last accepted network), and the comparison is always
-   against the control, so all drops together cost at most ``drop_tol`` dB on the val views.
+3. **Input selection** (learn/ablation.py). The kept network is fine-tuned briefly on its own inputs (the
+   control) and, for each input group the head does not need (``channels.drop_order``: `world` first, a
+   whole second EEVEE render), with that group removed: the first layers' weights for the removed channels
+   are cut out (``drop_inputs``), the rest kept, and the same short fine-tune follows. A group can go when
+   the val PSNR without it is at most ``drop_tol`` dB below the control's. Every trial starts from the kept
+   network and is compared with the control; when several can go, they are tried together, and dropped
+   together only when that too costs at most ``drop_tol`` dB (else only the cheapest goes).
 4. **Polish.** What is left of the budget trains the kept network on the kept inputs.
-5. **Report.** The final model is scored on the test views beside the generic model; prediction time of
+5. **Report** (evaluate/fit_report.py). The final model is scored on the test views beside the generic model; prediction time of
    both is measured (``bench.time_predictor`` at the views' size). The table of every run, the decisions and
    the verdict go into the checkpoint (key ``fit``) and into ``MODEL.fit_report.json`` / ``.md`` beside it.
 
@@ -42,16 +43,17 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 import torch
 
 from .. import channels as ch
-from ..infer import bench, predictor
-from . import checkpoint, data, network
 from ..dataset import folder
-from .. import files, images, metrics, normalize
 from ..errors import UserError
-from .train import TrainConfig, Trainer, evaluate
+from ..evaluate import fit_report
+from ..evaluate.fit_report import arch_label, number, plain
+from ..infer import bench
+from . import ablation, checkpoint, data, network
+from .train import TrainConfig, Trainer
+from .validation import evaluate
 
 TARGET_GAIN_DB = 2.0
 DEFAULT_TARGET_PSNR = 30.0
@@ -111,43 +113,6 @@ class FitConfig:
                 raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")
 
 
-# ---------------------------------------------------------------------------------------------- surgery
-
-def drop_inputs(net, new_spec) -> torch.nn.Module:
-    """A network for ``new_spec`` (a sub-sequence of ``net``'s input spec, same order) with ``net``'s weights:
-    every weight that reads the input tensor (the first conv, and the layer where the input is concatenated
-    again; in both backbones the input comes LAST in the concatenation) keeps the columns of the kept
-    channels; every other weight is copied as it is."""
-    old_spec = tuple(net.arch["inputs"])
-    new_spec = ch.parse_spec(new_spec)
-    if [g for g in old_spec if g in new_spec] != list(new_spec):
-        raise UserError(f"inputs {ch.format_spec(new_spec)} are not a sub-sequence of {ch.format_spec(old_spec)}")
-    lay = normalize.layout(old_spec)
-    kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
-    c_old, c_new = ch.input_channels(old_spec), len(kept)
-    arch = dict(net.arch, inputs=list(new_spec))
-    new = network.build(arch)
-    old_sd, new_sd = net.state_dict(), new.state_dict()
-    out = {}
-    for k, w in new_sd.items():
-        o = old_sd[k]
-        if o.shape == w.shape:
-            out[k] = o.detach().clone()
-            continue
-        if o.dim() != 4 or o.shape[1] - w.shape[1] != c_old - c_new or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
-            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs {ch.format_spec(new_spec)} {tuple(w.shape)}")
-        base = o.shape[1] - c_old
-        cols = list(range(base)) + [base + i for i in kept]
-        out[k] = o[:, cols].detach().clone()
-    new.load_state_dict(out)
-    return new
-
-
-def droppable(spec, head: str) -> list[str]:
-    need = network.HEAD_NEEDS.get(head, ())
-    return [g for g in ch.drop_order() if g in spec and g not in need]
-
-
 # ---------------------------------------------------------------------------------------------- the driver
 
 REPORT_RESERVE = (0.05, 5.0)  # training ends this share of the budget + seconds early: scoring and timing follow
@@ -170,33 +135,6 @@ class Budget:
 class Cancelled(Exception):
     pass
 
-
-def _f(v):
-    """Plain float (or None) for checkpoints (weights_only) and JSON."""
-    if v is None:
-        return None
-    v = float(v)
-    return v if math.isfinite(v) else (None if math.isnan(v) else v)
-
-
-def _arch_label(arch: dict) -> str:
-    if arch.get("backbone") == "unet":
-        return f"unet w{'/'.join(map(str, arch['widths']))} c{'/'.join(map(str, arch['convs']))}"
-    if arch.get("backbone") == "fssgi":
-        return f"fssgi w{arch['width']} {arch['pre']}+{arch['post']}"
-    return str(arch.get("variant"))
-
-
-def _predictor(net) -> predictor.Predictor:
-    """``net`` as the node runs it (Predictor.predict: output bound, 0 where the albedo is black)."""
-    return predictor.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
-
-
-def _time_ms(net, size, repeats: int) -> float:
-    """Fastest of ``repeats`` predictions of a view (ms): the whole Predictor.predict, as the node runs it.
-    The minimum, not the median: the 2 cores are shared, and other processes only ever add time."""
-    w, h = size  # bench's synthetic input holds every stored input group (world included)
-    return bench.time_predictor(_predictor(net), w, h, repeats=max(1, repeats))["ms_min"]
 
 
 class Fitter:
@@ -263,40 +201,17 @@ class Fitter:
         else:  # no epoch completed: the weights as they are
             net = tr.net.eval()
             best = dict(evaluate(net, tr.val_set), epoch=0, minutes=res["minutes"])
-        return net, dict(val_psnr=_f(best.get("val_psnr")), val_tm_psnr=_f(best.get("val_tm_psnr")),
-                         epochs=int(res["epochs"]), minutes=_f(res["minutes"]), reached=bool(reached["v"]))
+        return net, dict(val_psnr=number(best.get("val_psnr")), val_tm_psnr=number(best.get("val_tm_psnr")),
+                         epochs=int(res["epochs"]), minutes=number(res["minutes"]), reached=bool(reached["v"]))
 
     def _score(self, net, keys) -> dict:
-        samples = self.views.samples(tuple(net.arch["inputs"]), keys)
-        if not samples:
-            return {}
-        ev = evaluate(net, samples)
-        return dict(psnr=_f(ev["val_psnr"]), tm_psnr=_f(ev["val_tm_psnr"]), ssim=_f(ev["val_ssim"]))
+        return fit_report.score(net, self.views.samples(tuple(net.arch["inputs"]), keys))
 
     def _score_node(self, net, keys) -> dict:
-        """The views scored through Predictor.predict, i.e. what the SSGI node shows (``_score`` scores the raw
-        network output, as training's validation does; the fit's decisions use that one). Pooled over the
-        geometry pixels; SSIM with the reference pasted where nothing was hit, as ``evaluate`` does."""
-        keys = self.views.keys(keys)
-        if not keys:
-            return {}
-        was_training = net.training
-        pred = _predictor(net)
-        p, tp, ss = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True), []
-        try:
-            for k in keys:
-                g = self.views.raw[k]
-                r = metrics.score(pred.predict(g), normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
-                                  with_flip=False)
-                p.add_score(r)
-                tp.add_score(r)
-                ss.append(r["ssim"])
-        finally:
-            net.train(was_training)
-        return dict(psnr=_f(p.value), tm_psnr=_f(tp.value), ssim=_f(float(np.mean(ss))))
+        return fit_report.score_node(net, self.views, keys)
 
     def _ms(self, net, size=None, repeats=None) -> float:
-        return _f(_time_ms(net, size or self.views.size, repeats or self.cfg.bench_repeats))
+        return number(fit_report.time_ms(net, size or self.views.size, repeats or self.cfg.bench_repeats))
 
     # -- the fit --------------------------------------------------------------------------------------
     def run(self) -> dict:
@@ -328,7 +243,7 @@ class Fitter:
             ck = checkpoint.load(cfg.init)
             gnet = checkpoint.build_net(ck, cfg.init)
             generic = dict(path=str(cfg.init), arch=dict(ck["arch"]), net=gnet, params=network.count_params(gnet),
-                           macs=_f(network.macs_per_pixel(gnet)), val=self._score(gnet, self.val_keys),
+                           macs=number(network.macs_per_pixel(gnet)), val=self._score(gnet, self.val_keys),
                            test=self._score(gnet, self.test_keys), ms=self._ms(gnet))
             self.log(f"generic {cfg.init}: val {generic['val']['psnr']:.2f} dB, {generic['ms']:.1f} ms per view")
         target = cfg.target_psnr
@@ -345,7 +260,7 @@ class Fitter:
             arch = network.arch_for(variant, spec0, **over)
             net = network.build(arch)
             cands.append(dict(name=name, arch=arch, start="scratch", init_state=None,
-                              params=network.count_params(net), macs=_f(network.macs_per_pixel(net))))
+                              params=network.count_params(net), macs=number(network.macs_per_pixel(net))))
         if generic:
             cands.append(dict(name="generic-ft", arch=dict(generic["arch"]), start="fine-tune",
                               init_state=generic["net"].state_dict(), params=generic["params"], macs=generic["macs"]))
@@ -359,12 +274,12 @@ class Fitter:
                 secs = cfg.min_run_s  # the smallest is always tried
             if secs < cfg.min_run_s:
                 self.log(f"size {c['name']}: not tried (budget spent)")
-                self.rows.append(dict(phase="size", name=c["name"], arch=_arch_label(c["arch"]), start=c["start"],
+                self.rows.append(dict(phase="size", name=c["name"], arch=arch_label(c["arch"]), start=c["start"],
                                       params=c["params"], macs_per_px=c["macs"], decision="not tried (budget spent)"))
                 continue
-            self.log(f"size {c['name']} ({_arch_label(c['arch'])}, {c['params']:,} params, {c['start']}): {secs:.0f} s")
+            self.log(f"size {c['name']} ({arch_label(c['arch'])}, {c['params']:,} params, {c['start']}): {secs:.0f} s")
             net, r = self._train(c["name"], c["arch"], tuple(c["arch"]["inputs"]), secs, c["init_state"], self.target)
-            r.update(name=c["name"], arch=_arch_label(c["arch"]), start=c["start"], params=c["params"],
+            r.update(name=c["name"], arch=arch_label(c["arch"]), start=c["start"], params=c["params"],
                      macs_per_px=c["macs"], ms=self._ms(net), net=net, spec=ch.format_spec(tuple(net.arch["inputs"])))
             results.append(r)
             self.log(f"size {c['name']}: val {r['val_psnr']:.2f} dB after {r['minutes']:.2f} min, {r['ms']:.1f} ms"
@@ -372,7 +287,7 @@ class Fitter:
             if r["val_psnr"] is not None and r["val_psnr"] >= self.target:
                 chosen = r
                 for c2 in cands[i + 1:]:
-                    self.rows.append(dict(phase="size", name=c2["name"], arch=_arch_label(c2["arch"]), start=c2["start"],
+                    self.rows.append(dict(phase="size", name=c2["name"], arch=arch_label(c2["arch"]), start=c2["start"],
                                           params=c2["params"], macs_per_px=c2["macs"],
                                           decision="not tried (a smaller one reached the target)"))
                 break
@@ -384,7 +299,7 @@ class Fitter:
         for r in results:
             row = {k: v for k, v in r.items() if k != "net"}
             row["phase"] = "size"
-            row["seconds"] = _f(60 * row.pop("minutes"))
+            row["seconds"] = number(60 * row.pop("minutes"))
             row["decision"] = ("kept" if r is chosen else
                                ("below target" if r["macs_per_px"] < chosen["macs_per_px"] else "not kept"))
             self.rows.append(row)
@@ -403,72 +318,19 @@ class Fitter:
         if self.budget.left >= cfg.min_run_s:
             pnet, rp = self._train("final", dict(net.arch), spec, self.budget.left, net.state_dict())
             pre = self._score(net, self.val_keys)["psnr"]
-            polish = dict(before=pre, after=rp["val_psnr"], seconds=_f(60 * rp["minutes"]))
+            polish = dict(before=pre, after=rp["val_psnr"], seconds=number(60 * rp["minutes"]))
             if rp["val_psnr"] is not None and rp["val_psnr"] >= pre:
                 net = pnet
         return self._finish(net, generic, chosen, reached, control, polish)
 
     def _select_inputs(self, net):
-        """Ablation (module doc, step 3): every trial starts from ``net`` and trains for the same time as the
-        control, so the comparison is fair; the union of the groups that cost at most ``drop_tol`` dB alone
-        is then checked together (one more run). Returns (net, spec, control val PSNR)."""
-        cfg = self.cfg
-        spec = tuple(net.arch["inputs"])
-        head = net.arch.get("head", "log")
-        groups = droppable(spec, head)
-        for g in spec:
-            if g not in groups:
-                self.rows.append(dict(phase="inputs", group=g, spec=None, decision=f"kept (the {head} head needs it)"))
-        per = min(ABLATION_SHARE * self.budget.total, self.budget.left * 0.6) / (len(groups) + 2) if groups else 0.0
-        if not groups:
-            self.rows.append(dict(phase="inputs", group="(all)", decision="nothing to drop"))
-            return net, spec, None
-        # the ablation always runs, each run at least min_run_s: at most (groups + 2) * min_run_s over budget
-        per = max(per, cfg.min_run_s)
-
-        def row(group, sp, r, delta, decision):
-            self.rows.append(dict(phase="inputs", group=group, spec=ch.format_spec(sp), passes=list(ch.required_passes(sp)),
-                                  val_psnr=r["val_psnr"], delta_db=_f(delta), seconds=_f(60 * r["minutes"]), decision=decision))
-
-        ctrl_net, rc = self._train("control", dict(net.arch), spec, per, net.state_dict())
-        control = rc["val_psnr"]
-        row("(none: control)", spec, rc, 0.0, "control")
-        self.log(f"inputs: control (all of {ch.format_spec(spec)}): val {control:.2f} dB")
-        ok, deltas, nets = [], {}, {}
-        for g in groups:
-            new_spec = tuple(x for x in spec if x != g)
-            trial = drop_inputs(net, new_spec)
-            nets[g], rt = self._train(f"drop-{g}", dict(trial.arch), new_spec, per, trial.state_dict())
-            deltas[g] = control - rt["val_psnr"]
-            good = deltas[g] <= cfg.drop_tol
-            row(g, new_spec, rt, deltas[g], "can go" if good else "kept")
-            self.log(f"inputs: without {g}: val {rt['val_psnr']:.2f} dB ({-deltas[g]:+.2f} dB vs control) -> "
-                     + ("can go" if good else "kept"))
-            if good:
-                ok.append(g)
-        if not ok:
-            return ctrl_net, spec, control
-        new_spec = tuple(x for x in spec if x not in ok)
-        if len(ok) > 1:  # together they may cost more than each alone
-            trial = drop_inputs(net, new_spec)
-            tnet, rt = self._train("drop-" + "+".join(ok), dict(trial.arch), new_spec, per, trial.state_dict())
-            delta = control - rt["val_psnr"]
-            good = delta <= cfg.drop_tol
-            row(" + ".join(ok), new_spec, rt, delta, "dropped together" if good else "too much together")
-            self.log(f"inputs: without {' + '.join(ok)}: val {rt['val_psnr']:.2f} dB ({-delta:+.2f} dB) -> "
-                     + ("dropped" if good else "too much together; dropping only the cheapest"))
-            if good:
-                self._mark_dropped(ok)
-                return tnet, new_spec, control
-            ok = [min(ok, key=lambda g: deltas[g])]
-            new_spec = tuple(x for x in spec if x not in ok)
-        self._mark_dropped(ok)
-        return nets[ok[0]], new_spec, control
-
-    def _mark_dropped(self, groups):
-        for r in self.rows:
-            if r.get("phase") == "inputs" and r.get("group") in groups:
-                r["decision"] = "dropped"
+        """Ablation (module doc, step 3; ablation.select_inputs): one equal share of ``ABLATION_SHARE`` of the
+        budget per run (the control, each droppable group, their union), at least ``min_run_s`` each: the
+        ablation always runs, at most (groups + 2) * min_run_s over budget. Returns (net, spec, control)."""
+        n = len(ablation.droppable(tuple(net.arch["inputs"]), net.arch.get("head", "log")))
+        per = min(ABLATION_SHARE * self.budget.total, self.budget.left * 0.6) / (n + 2) if n else 0.0
+        return ablation.select_inputs(net, self._train, max(per, self.cfg.min_run_s), self.cfg.drop_tol, self.rows,
+                                      self.log)
 
     def _finish(self, net, generic, chosen, reached, control, polish) -> dict:
         cfg = self.cfg
@@ -488,25 +350,25 @@ class Fitter:
                 if big:
                     generic["ms_big"] = min(generic["ms_big"], self._ms(generic["net"], big, 2))
                     ms_big = min(ms_big, self._ms(net, big, 2))
-        final = dict(arch=_arch_label(net.arch), variant=net.arch["variant"], inputs=list(spec),
+        final = dict(arch=arch_label(net.arch), variant=net.arch["variant"], inputs=list(spec),
                      passes=list(ch.required_passes(spec)), params=network.count_params(net),
-                     macs_per_px=_f(network.macs_per_pixel(net)), ms=ms, ms_big=ms_big, bench_size=cfg.bench_size,
+                     macs_per_px=number(network.macs_per_pixel(net)), ms=ms, ms_big=ms_big, bench_size=cfg.bench_size,
                      val=self._score(net, self.val_keys), test=self._score(net, self.test_keys),
                      test_node=self._score_node(net, self.test_keys))
         gen = None
         if generic:
             generic["test_node"] = self._score_node(generic["net"], self.test_keys)
             gen = {k: generic.get(k) for k in ("path", "params", "macs", "val", "test", "test_node", "ms", "ms_big")}
-            gen["arch"] = _arch_label(generic["arch"])
+            gen["arch"] = arch_label(generic["arch"])
             gen["inputs"] = list(generic["arch"]["inputs"])
             gen["passes"] = list(ch.required_passes(tuple(generic["arch"]["inputs"])))
-        verdict = self._verdict(final, gen)
-        report = dict(target_psnr=self.target, target_reached=reached, minutes=_f(self.budget.used / 60),
+        verdict = fit_report.verdict(final, gen, self.views.size, TARGET_GAIN_DB)
+        report = dict(target_psnr=self.target, target_reached=reached, minutes=number(self.budget.used / 60),
                       budget_minutes=cfg.minutes, views=dict(train=self.train_keys, val=self.val_keys, test=self.test_keys,
                                                               size=[self.views.size[1], self.views.size[0]],
                                                               skipped=dict(self.views.skipped)),
                       drop_tol=cfg.drop_tol, chosen_size=chosen["name"], control_val_psnr=control, polish=polish,
-                      rows=[_plain(r) for r in self.rows], final=_plain(final), generic=_plain(gen), verdict=verdict,
+                      rows=[plain(r) for r in self.rows], final=plain(final), generic=plain(gen), verdict=verdict,
                       data=str(Path(cfg.data).resolve()), command=cfg.command)
         best = dict(val_psnr=final["val"].get("psnr"), val_tm_psnr=final["val"].get("tm_psnr"),
                     test_psnr=final["test"].get("psnr"), test_node_psnr=(final["test_node"] or {}).get("psnr"))
@@ -517,101 +379,14 @@ class Fitter:
                              extra=dict(fit=report))
         ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}
         checkpoint.save(self.out, ck)
-        jpath, mpath = report_paths(self.out)
-        files.write_json(jpath, report, indent=1)
-        files.write_text(mpath, report_markdown(report, self.out))
+        jpath, mpath = fit_report.write(report, self.out)
         self.log(f"wrote {self.out} (inputs {ch.format_spec(spec)}), {jpath.name}, {mpath.name}")
         self.log(verdict)
         self._report("done", verdict)
         return dict(status="done", model=str(self.out), report=str(jpath), report_md=str(mpath), inputs=list(spec),
-                    passes=final["passes"], final=_plain(final), generic=_plain(gen), target_psnr=self.target,
+                    passes=final["passes"], final=plain(final), generic=plain(gen), target_psnr=self.target,
                     target_reached=reached, verdict=verdict, minutes=report["minutes"], rows=report["rows"])
 
-    def _verdict(self, final, gen) -> str:
-        # judged on the held-out test views as the node shows them (Predictor.predict); val (raw network
-        # output) only when there are no test views
-        which = "test_node" if final.get("test_node") else "val"
-        fv = final[which].get("psnr")
-        if gen is None:
-            return f"fitted model: {which} PSNR {fv:.2f} dB, {final['ms']:.1f} ms per view (no generic model to compare with)"
-        gv = gen[which].get("psnr")
-        gain = fv - gv
-        key = "ms_big" if final.get("ms_big") and gen.get("ms_big") else "ms"
-        at = final["bench_size"] if key == "ms_big" else f"{self.views.size[1]}x{self.views.size[0]}"
-        ratio = final[key] / gen[key] if gen[key] else math.nan
-        label = "test, as the node shows it" if which == "test_node" else "val"
-        s = (f"held-out ({label}) PSNR {fv:.2f} dB vs generic {gv:.2f} dB ({gain:+.2f} dB), prediction at {at} "
-             f"{final[key]:.1f} ms vs {gen[key]:.1f} ms ({ratio:.2f}x)")
-        if gain >= TARGET_GAIN_DB and ratio <= 0.5:
-            return "the scene gains: " + s
-        why = []
-        if gain < TARGET_GAIN_DB:
-            why.append(f"less than {TARGET_GAIN_DB:g} dB better")
-        if not ratio <= 0.5:
-            why.append("not at most half the prediction time")
-        return f"the scene does not gain enough ({' and '.join(why)}): " + s
-
-
-def _plain(x):
-    if isinstance(x, dict):
-        return {str(k): _plain(v) for k, v in x.items() if k != "net"}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        return _f(x)
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    return x
-
-
-def report_paths(model) -> tuple[Path, Path]:
-    m = Path(model)
-    return m.with_name(m.stem + ".fit_report.json"), m.with_name(m.stem + ".fit_report.md")
-
-
-def _n(v, fmt="{:.2f}"):
-    return "-" if v is None else fmt.format(v)
-
-
-def report_markdown(rep: dict, model) -> str:
-    L = [f"# Fit report: {Path(model).name}", "", f"**{rep['verdict']}**", "",
-         f"Views {rep['views']['size'][0]}x{rep['views']['size'][1]}: {len(rep['views']['train'])} train, "
-         f"{len(rep['views']['val'])} val (choose), {len(rep['views']['test'])} test (judge). "
-         f"Target {rep['target_psnr']:.2f} dB val PSNR ({'reached' if rep['target_reached'] else 'NOT reached'}). "
-         f"Fit took {rep['minutes']:.2f} of {rep['budget_minutes']:g} min.", "",
-         "## Size search (smallest first)", "",
-         "| size | architecture | start | params | MACs/px | predict ms | val PSNR | trained s | decision |",
-         "|---|---|---|---:|---:|---:|---:|---:|---|"]
-    for r in rep["rows"]:
-        if r["phase"] == "size":
-            L.append(f"| {r['name']} | {r['arch']} | {r['start']} | {r['params']:,} | {_n(r.get('macs_per_px'), '{:.0f}')} | "
-                     f"{_n(r.get('ms'), '{:.1f}')} | {_n(r.get('val_psnr'))} | {_n(r.get('seconds'), '{:.0f}')} | {r['decision']} |")
-    L += ["", f"## Inputs (drop when val PSNR falls by at most {rep['drop_tol']:g} dB against the control)", "",
-          "| without | inputs | passes rendered | val PSNR | change dB | decision |", "|---|---|---|---:|---:|---|"]
-    for r in rep["rows"]:
-        if r["phase"] == "inputs":
-            d = r.get("delta_db")
-            L.append(f"| {r['group']} | {r.get('spec') or '-'} | {', '.join(p.replace('use_pass_', '') for p in r.get('passes', [])) or '-'} | "
-                     f"{_n(r.get('val_psnr'))} | {_n(None if d is None else -d, '{:+.2f}')} | {r['decision']} |")
-    f, g = rep["final"], rep.get("generic")
-    big = f.get("bench_size") or "-"
-    L += ["", "## Result", "", "Test columns: the held-out views as the SSGI node shows them (Predictor.predict: "
-          "output bound, 0 where the albedo is black); \"raw\" is the network output, as validation scores it.", "",
-          f"| model | inputs | params | predict ms (views' size) | predict ms ({big}) | val PSNR (raw) | "
-          "test PSNR (raw) | test PSNR | test PSNR (tonemapped) | test SSIM |",
-          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for name, m in (("fitted", f), ("generic", g)):
-        if m:
-            tn = m.get("test_node") or {}
-            L.append(f"| {name} ({m['arch']}) | {','.join(m['inputs'])} | {m['params']:,} | {_n(m['ms'], '{:.1f}')} | "
-                     f"{_n(m.get('ms_big'), '{:.1f}')} | {_n(m['val'].get('psnr'))} | {_n(m['test'].get('psnr'))} | "
-                     f"{_n(tn.get('psnr'))} | {_n(tn.get('tm_psnr'))} | {_n(tn.get('ssim'), '{:.3f}')} |")
-    if rep.get("polish"):
-        p = rep["polish"]
-        L += ["", f"Polish (the kept network, kept inputs, the rest of the budget): val {_n(p['before'])} -> "
-              f"{_n(p['after'])} dB in {_n(p['seconds'], '{:.0f}')} s of training."]
-    L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]
-    return "\n".join(L)
 
 
 def fit(cfg: FitConfig, log=None, callback=None, should_stop=None) -> dict:

@@ -2,6 +2,12 @@
 
 Used by ``cli.py train`` and by the Blender "Train" operator's worker thread (it never touches bpy).
 
+Why this module stays whole (~430 lines): it is the training loop (its config and one class), whose resume state, lr
+schedule, NaN guard and checkpoints share the same fields (step, epoch, snapshot, lr scale, quarantine) and one
+invariant (a resumed run equals an uninterrupted one); split, those fields would be written in one module and
+read in another. What is not the loop is elsewhere: validation metrics (validation.py), learning curves
+(curves.py), checkpoints (checkpoint.py), samples (data.py).
+
 - Data: the whole dataset folder in memory (data.DatasetFolder); train/validation split by scene
   (data.split_scenes, seeded), recorded in the checkpoint.
 - Batches: random ``crop`` x ``crop`` crops of training images, each mirrored left-right with p = 0.5
@@ -10,7 +16,7 @@ Used by ``cli.py train`` and by the Blender "Train" operator's worker thread (it
 - Loss: mean squared error in log1p space, ``mean((net(x) - log1p(ref))^2)`` over the geometry pixels
   (data.Sample.mask; where nothing was hit the world shows, which no input describes): log1p compresses
   bright lights (1e3 -> 6.9) so they do not dominate, and is close to linear for the [0, 1] range the PSNR
-  scores. Validation metrics (``evaluate``) are pooled over the same pixels.
+  scores. Validation metrics (``validation.evaluate``) are pooled over the same pixels.
 - Optimizer: Adam (lr 1e-3) by default; ``sgd``: momentum 0.9, lr 1e-2, gradient-norm clipping at ``clip``
   (default 1.0 for SGD, none for Adam). The learning rate follows a cosine from lr to lr/20 over the
   budget (epochs, or minutes when no epoch count is given).
@@ -44,7 +50,8 @@ import torch
 
 from .. import channels as ch
 from . import checkpoint, curves, data, network
-from .. import files, metrics, normalize
+from .validation import evaluate, geometry
+from .. import files, normalize
 from ..errors import UserError
 
 SNAPSHOT_EVERY = 50
@@ -94,35 +101,6 @@ class TrainConfig:
             raise UserError(f"validation fraction must be in (0, 1) (got {self.val_fraction})")
         if self.variant == "linear":
             raise UserError("the linear variant is fitted in closed form: use `cli.py baseline`")
-
-
-def geometry(s: data.Sample) -> torch.Tensor:
-    """H x W bool mask of the pixels a model is scored on (all when the sample has no mask)."""
-    return s.mask if s.mask is not None else torch.ones(s.y.shape[1:], dtype=torch.bool)
-
-
-def evaluate(net, samples, with_ssim: bool = True) -> dict:
-    """Validation metrics over the geometry pixels of whole images (data.Sample.mask): PSNR by the seed's
-    convention and after the tonemap, pooled over all those pixels of all images; log-space MSE (the loss);
-    mean SSIM of the image with the reference composited where nothing was hit (as the node shows it)."""
-    p, tp = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True)
-    ss, sq, n = [], 0.0, 0
-    net.eval()
-    with torch.inference_mode():
-        for s in samples:
-            out = net(s.x[None].contiguous(memory_format=torch.channels_last))
-            m = geometry(s)
-            sq += float((((out - normalize.light_forward(s.y[None])) ** 2) * m).sum())
-            n += 3 * int(m.sum())
-            pred = network.to_linear(out)[0].permute(1, 2, 0).numpy()
-            r = metrics.score(pred, s.y.permute(1, 2, 0).numpy(), m.numpy(), with_ssim=with_ssim, with_flip=False)
-            p.add_score(r)
-            tp.add_score(r)
-            if with_ssim:
-                ss.append(r["ssim"])
-    net.train()
-    return dict(val_psnr=p.value, val_tm_psnr=tp.value, val_ssim=float(np.mean(ss)) if ss else math.nan,
-                val_loss=sq / max(n, 1))
 
 
 class Trainer:

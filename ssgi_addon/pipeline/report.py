@@ -124,14 +124,14 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
     import bpy
 
     from ...model.infer import predictor
-    from ...model.evaluate import report as rep
+    from ...model.evaluate import record, report as rep
     from .report_run import ReportRun, Settings, log
     from .report_scenes import dataset_scenes
 
     cfg.check()
     t_start = time.perf_counter()
     out = out_dir(cfg.out)
-    machine = rep.machine()
+    machine = record.machine()
     notes: list[str] = []
     models = [Path(p) for p in cfg.models]
     preds = [(p, predictor.load_predictor(p, num_threads=cfg.threads)) for p in models]
@@ -163,7 +163,7 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
         f"Cycles ladder {','.join(map(str, settings.spp))} spp")
 
     partial = out / "report.partial.json"
-    runner = ReportRun(scenes, preds, settings, partial=lambda raw: rep.write_json(partial, raw),
+    runner = ReportRun(scenes, preds, settings, partial=lambda raw: record.write_json(partial, raw),
                        progress=progress, should_stop=should_stop)
     raw, images = runner.run()
     if runner.cancelled:
@@ -176,8 +176,8 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
     if cfg.temporal_frames >= 2:
         raw["temporal"] = runner.temporal(scenes[0], raw["default_model_key"], cfg.temporal_frames)
     machine["loadavg_end"] = list(os.getloadavg())
-    raw.update(date=rep.now(), command=cfg.command or "ssgi_addon.pipeline.report.run", machine=machine,
-               versions=dict(rep.versions(), blender=bpy.app.version_string), settings=settings.as_dict(),
+    raw.update(date=record.now(), command=cfg.command or "ssgi_addon.pipeline.report.run", machine=machine,
+               versions=dict(record.versions(), blender=bpy.app.version_string), settings=settings.as_dict(),
                run_s=time.perf_counter() - t_start)
     raw["notes"] = raw.get("notes", []) + notes
     files = rep.write_outputs(raw, images, out)

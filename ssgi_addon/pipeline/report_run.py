@@ -32,7 +32,7 @@ import numpy as np
 
 from ...model import channels as ch
 from ...model import images, metrics
-from ...model.evaluate import report as rep
+from ...model.evaluate import analysis
 from ...model.errors import UserError
 from ..blender import passes
 from .report_scenes import RASTER_GROUPS, EvalScene
@@ -284,7 +284,7 @@ class ReportRun:
     def scaling(self, es: EvalScene, sizes) -> dict:
         """Prediction time per model at each size (model.bench.time_predictor in this process, warm, on
         synthetic inputs: the weights and the image content do not change the work), its peak memory in a fresh
-        process (report.peak_memory), and the G-buffer raster and Cycles 1 spp + OIDN of scene ``es`` at each
+        process (bench.peak_memory), and the G-buffer raster and Cycles 1 spp + OIDN of scene ``es`` at each
         size."""
         from ...model.infer import bench
         from ...model.cliargs import parse_size
@@ -306,7 +306,7 @@ class ReportRun:
             for key, (path, pred) in self._model_keys.items():
                 r = bench.time_predictor(pred, w, h, repeats=3 if w * h < 1e6 else 2)
                 r["peak_mb_in_process"] = r.pop("peak_mb")
-                fresh = rep.peak_memory(path, w, h, self.s.threads)
+                fresh = bench.peak_memory(path, w, h, self.s.threads)
                 r.update(peak_mb=fresh.get("peak_mb"), cold_ms=fresh.get("first_ms"))
                 out["models"].setdefault(key, []).append(dict(size=z, **r))
                 self.log(f"scaling {z}: {Path(path).name} {r['ms']:.0f} ms, peak +{r['peak_mb'] or 0:.0f} MB")
@@ -317,11 +317,11 @@ class ReportRun:
         G-buffer, every model, Cycles + OIDN at the rung closest in time to the default model, and a
         reference at ``temporal_ref_samples``; the mean frame-to-frame change of (image - reference)."""
         s = self.s
-        summ = {k: rep.summarize_method(m) for k, m in self.raw["methods"].items()}
+        summ = {k: analysis.summarize_method(m) for k, m in self.raw["methods"].items()}
         oidn = sorted((m["spp"], summ[k]["whole_s"]) for k, m in self.raw["methods"].items()
                       if m["family"] == "cycles_oidn" and summ.get(k))
         t_model = summ[model_key]["whole_s"] if model_key and summ.get(model_key) else None
-        rung = rep.closest_rung(oidn, t_model) if t_model else (oidn[0] if oidn else None)
+        rung = analysis.closest_rung(oidn, t_model) if t_model else (oidn[0] if oidn else None)
         scene = es.open()
         cam = scene.camera
         x_axis = cam.matrix_world.to_3x3().col[0].copy()
@@ -343,7 +343,7 @@ class ReportRun:
             refs.append(es.light(passes.render_cycles(scene, s.temporal_ref_samples, seed=int(es.meta.get("seed", 0)),
                                                       denoise=s.ref_denoise)["ref"]))
             self.log(f"temporal: frame {i + 1}/{frames}")
-        res = {name: rep.temporal_change(imgs, refs) for name, imgs in seqs.items()}
+        res = {name: analysis.temporal_change(imgs, refs) for name, imgs in seqs.items()}
         return dict(scene=es.name, frames=frames, ref_samples=s.temporal_ref_samples, methods=res,
                     oidn_spp=rung[0] if rung else None, oidn_s=rung[1] if rung else None, model_s=t_model,
                     cycles_seed_note=f"fixed ({LADDER_SEED}) in every frame, as Blender's default "

@@ -11,12 +11,14 @@ import pytest
 import torch
 
 from ssgi.model import channels as ch
-from ssgi.model.learn import checkpoint, data, fit, network
+from ssgi.model.evaluate import fit_report
+from ssgi.model.learn import ablation, checkpoint, data, fit, network
 from ssgi.model.infer import predictor
 from ssgi.model import images, normalize
 from ssgi.model.dataset import synthetic
 from ssgi.model.errors import UserError
-from ssgi.model.learn.train import TrainConfig, Trainer, evaluate
+from ssgi.model.learn.train import TrainConfig, Trainer
+from ssgi.model.learn.validation import evaluate
 
 ABLATE_ALL = 1000.0  # a drop tolerance that drops every group the head does not need
 
@@ -65,9 +67,9 @@ def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, o
     x = torch.rand(1, ch.input_channels(spec), 20, 28)
     for drop in (("ao",), ("depth", "normal"), ("lit", "ao", "normal")):
         new_spec = tuple(g for g in spec if g not in drop)
-        small = fit.drop_inputs(net, new_spec).eval()
+        small = ablation.drop_inputs(net, new_spec).eval()
         assert tuple(small.arch["inputs"]) == new_spec
-        lay = fit.normalize.layout(spec)
+        lay = normalize.layout(spec)
         kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
         zeroed = x.clone()
         for g in drop:
@@ -77,13 +79,13 @@ def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, o
             np.testing.assert_allclose(small(x[:, kept]).numpy(), want, rtol=1e-4, atol=1e-5 * np.abs(want).max())
             assert not torch.allclose(net(x), net(zeroed))  # the dropped inputs did matter before
     with pytest.raises(UserError, match="not a sub-sequence"):
-        fit.drop_inputs(net, ("direct", "albedo"))
+        ablation.drop_inputs(net, ("direct", "albedo"))
 
 
 def test_droppable_respects_the_head():
-    assert fit.droppable(ch.INPUT_GROUPS, "residual") == ["world", "scene", "ao", "depth", "normal", "lit"]
-    assert fit.droppable(ch.INPUT_GROUPS, "demod") == ["world", "scene", "ao", "depth", "normal", "lit", "direct"]
-    assert fit.droppable(("albedo", "direct"), "residual") == []
+    assert ablation.droppable(ch.INPUT_GROUPS, "residual") == ["world", "scene", "ao", "depth", "normal", "lit"]
+    assert ablation.droppable(ch.INPUT_GROUPS, "demod") == ["world", "scene", "ao", "depth", "normal", "lit", "direct"]
+    assert ablation.droppable(("albedo", "direct"), "residual") == []
 
 
 def test_split_views_holds_out_whole_cameras():
@@ -143,7 +145,7 @@ def test_fit_writes_a_checkpoint_with_only_the_kept_inputs(fitted):
     assert fitted["res"]["passes"] == ["use_pass_diffuse_color", "use_pass_diffuse_direct"]
     # the report is in the checkpoint and beside it, and they agree
     rep = ck["fit"]
-    jpath, mpath = fit.report_paths(fitted["out"])
+    jpath, mpath = fit_report.report_paths(fitted["out"])
     assert json.loads(jpath.read_text())["final"] == rep["final"]
     md = mpath.read_text()
     assert "## Size search" in md and "## Inputs" in md and rep["verdict"] in md
@@ -240,7 +242,7 @@ def test_fit_cancel_writes_nothing(views, tmp_path):
     cfg = fit.FitConfig(data=str(views), out=str(out), train_keys=TRAIN, val_keys=VAL, minutes=1.0, threads=1,
                         crop=32, batch=8, min_run_s=1.0, command="test")
     res = fit.fit(cfg, log=lambda m: None, should_stop=stop)
-    assert res["status"] == "cancelled" and not out.exists() and not fit.report_paths(out)[0].exists()
+    assert res["status"] == "cancelled" and not out.exists() and not fit_report.report_paths(out)[0].exists()
 
 
 def test_fit_stage_config_refuses_bad_settings_before_any_work(tmp_path):

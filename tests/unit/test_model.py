@@ -301,6 +301,21 @@ def test_inputs_are_configurable_and_heads_name_what_they_need():
     assert network.count_params(_net("fssgi", spec=("normal", "depth"))) < 238_339  # the log head needs nothing
 
 
+def test_peak_memory_measures_a_cold_prediction_in_a_fresh_process(tmp_path):
+    """bench.peak_memory runs bench.cold_prediction in a child Python process: it returns the growth of the
+    child's peak resident set and the time of its first prediction; a file that is no model gives an error
+    line, never an exception."""
+    from ssgi.model.infer import bench
+    net = _net("unet_s")
+    checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
+    r = bench.peak_memory(tmp_path / "m.pt", 32, 24, threads=1, timeout=300)
+    assert "error" not in r, r
+    assert math.isfinite(r["peak_mb"]) and r["peak_mb"] >= 0 and r["first_ms"] > 0
+    (tmp_path / "notes.txt").write_text("not a model")
+    bad = bench.peak_memory(tmp_path / "notes.txt", 32, 24, timeout=300)
+    assert bad["peak_mb"] is None and "notes.txt" in bad["error"]
+
+
 # ---------------------------------------------------------------- datasets with and without the world group
 
 def _strip_world(folder):
@@ -351,7 +366,7 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
 
     from ssgi.model import files
     from ssgi.model.dataset import exrio, folder as dataset, preview, synthetic
-    from ssgi.model.evaluate import report
+    from ssgi.model.evaluate import record
     from ssgi.model.learn import curves
     moves = []
     real = os.replace
@@ -363,7 +378,7 @@ def test_every_writer_renames_from_the_one_temp_pattern(tmp_path, monkeypatch):
     net = _net("fssgi")
     checkpoint.save(tmp_path / "m.pt", checkpoint.make(net, "network", command="test"))
     images.write_png(tmp_path / "p.png", np.zeros((4, 4, 3), np.uint8))
-    report.write_json(tmp_path / "r.json", {"a": math.inf})
+    record.write_json(tmp_path / "r.json", {"a": math.inf})
     curves.curve_png([dict(minutes=0.1, val_psnr=20.0, val_tm_psnr=21.0)], tmp_path / "c.png")
     assert len(moves) >= 9
     for src, dst in moves:
@@ -501,7 +516,7 @@ def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_abl
 
     from ssgi.model.dataset import folder as dataset, preview
     from ssgi.model.infer import bench
-    from ssgi.model.learn import fit
+    from ssgi.model.learn import ablation
     new = replace(ch.GROUPS["ao"], name="curvature", render_pass="Curvature", preview="grey", drop_rank=1)
     monkeypatch.setattr(ch, "GROUPS", {**ch.GROUPS, "curvature": new})
     monkeypatch.setattr(ch, "SAMPLE_GROUPS", ch.SAMPLE_GROUPS[:-2] + ("curvature",) + ch.SAMPLE_GROUPS[-2:])
@@ -512,5 +527,5 @@ def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_abl
     assert bench.synthetic_groups(4, 3)["curvature"].shape == (3, 4, 1)
     assert ch.drop_order()[:3] == ("world", "curvature", "scene")
     spec = ch.parse_spec("albedo,direct,curvature")
-    assert fit.droppable(spec, "residual") == ["curvature"]
+    assert ablation.droppable(spec, "residual") == ["curvature"]
     assert {g.name: g.render_pass for g in ch.GROUPS.values()}["curvature"] == "Curvature"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ssgi.model import metrics
-from ssgi.model.evaluate import report as rep
+from ssgi.model.evaluate import analysis
 
 # ------------------------------------------------------------------------------------------ metrics
 
@@ -24,7 +24,7 @@ def test_psnr_of_a_known_mse_pooled_over_geometry_and_scenes():
     assert b["psnr"] == pytest.approx(10 * math.log10(1 / 0.04), abs=1e-4)
     # tonemapped PSNR: errors measured after x / (1 + x)
     assert a["tm_psnr"] == pytest.approx(metrics.tm_psnr(pred[mask], ref[mask]), abs=1e-9) and a["tm_psnr"] > a["psnr"]
-    s = rep.summarize_method({"per_scene": {"A": dict(a, time={"whole_s": 1.0, "own_s": 0.5}),
+    s = analysis.summarize_method({"per_scene": {"A": dict(a, time={"whole_s": 1.0, "own_s": 0.5}),
                                             "B": dict(b, time={"whole_s": 3.0, "own_s": 1.5})}})
     assert s["psnr"] == pytest.approx(10 * math.log10(1 / 0.025), abs=1e-4)  # MSE pooled, not PSNR averaged
     assert s["worst_scene"] == "B" and s["whole_s"] == 2.0 and s["own_s"] == 1.0
@@ -79,7 +79,7 @@ def test_flip_of_black_against_white_matches_the_papers_formula():
 def test_temporal_change_is_the_mean_step_of_the_tonemapped_error():
     refs = [np.zeros((4, 4, 3), np.float32)] * 3
     preds = [np.full((4, 4, 3), v, np.float32) for v in (1.0, 3.0, 1.0)]  # tonemapped errors 0.5, 0.75, 0.5
-    t = rep.temporal_change(preds, refs)
+    t = analysis.temporal_change(preds, refs)
     assert t["per_step"] == pytest.approx([0.25, 0.25]) and t["change"] == pytest.approx(0.25)
     assert t["mean_abs_error"] == pytest.approx((0.5 + 0.75 + 0.5) / 3)
 
@@ -89,20 +89,20 @@ def test_temporal_change_is_the_mean_step_of_the_tonemapped_error():
 
 def test_equal_quality_interpolates_log_time_on_the_ladder():
     ladder = [(1.0, 30.0), (2.0, 34.0), (3.0, 33.0), (8.0, 38.0)]  # (3 s, 33 dB) is off the upper envelope
-    e = rep.equal_quality(ladder, 32.0, 0.5)
+    e = analysis.equal_quality(ladder, 32.0, 0.5)
     assert e["bound"] == "=" and e["time_s"] == pytest.approx(math.sqrt(2.0)) and e["winner"] == "method"
     assert e["speedup"] == pytest.approx(2 * math.sqrt(2.0))
-    e = rep.equal_quality(ladder, 36.0, 10.0)  # halfway (in dB) from 2 s to 8 s -> 4 s; 10 s is slower
+    e = analysis.equal_quality(ladder, 36.0, 10.0)  # halfway (in dB) from 2 s to 8 s -> 4 s; 10 s is slower
     assert e["time_s"] == pytest.approx(4.0) and e["speedup"] == pytest.approx(0.4) and e["winner"] == "cycles_oidn"
-    e = rep.equal_quality(ladder, 20.0, 2.0)  # below the cheapest rung, and slower than it: Cycles wins
+    e = analysis.equal_quality(ladder, 20.0, 2.0)  # below the cheapest rung, and slower than it: Cycles wins
     assert (e["bound"], e["time_s"], e["winner"]) == ("<=", 1.0, "cycles_oidn")
-    e = rep.equal_quality(ladder, 20.0, 0.1)  # below the ladder but cheaper than it: no verdict
+    e = analysis.equal_quality(ladder, 20.0, 0.1)  # below the ladder but cheaper than it: no verdict
     assert (e["bound"], e["winner"]) == ("<=", "undecided")
-    e = rep.equal_quality(ladder, 40.0, 2.0)  # above the best rung and faster than it: at least 4x
+    e = analysis.equal_quality(ladder, 40.0, 2.0)  # above the best rung and faster than it: at least 4x
     assert (e["bound"], e["speedup"], e["winner"]) == (">=", 4.0, "method")
 
 
 def test_pareto_front_and_closest_rung():
     pts = [("a", 1.0, 10.0), ("b", 2.0, 12.0), ("c", 2.0, 11.0), ("d", 0.5, 5.0), ("e", 3.0, 12.0)]
-    assert sorted(rep.pareto_front(pts)) == ["a", "b", "d"]
-    assert rep.closest_rung([(1, 0.1), (2, 0.3), (4, 1.2)], 0.5)[0] == 2  # log scale: 0.5 is nearer 0.3 than 1.2
+    assert sorted(analysis.pareto_front(pts)) == ["a", "b", "d"]
+    assert analysis.closest_rung([(1, 0.1), (2, 0.3), (4, 1.2)], 0.5)[0] == 2  # log scale: 0.5 is nearer 0.3 than 1.2

@@ -204,7 +204,7 @@ def test_baseline_checkpoint_predicts_like_a_model(tmp_path, dataset_dir):
 
 def test_background_pixels_are_left_out_of_metrics_and_loss(dataset_dir):
     """Where nothing was hit (zero normal) the world shows; the metrics and the baseline fit ignore it."""
-    from ssgi.model.learn.train import evaluate
+    from ssgi.model.learn.validation import evaluate
     net = network.build(network.arch_for("linear", space="linear"))
     with torch.no_grad():
         net.conv.weight.zero_()

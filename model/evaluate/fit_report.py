@@ -1,0 +1,172 @@
+"""The fit's judging and its report (bpy-free): a network's scores on the views (its raw output, as validation
+scores it, and as the SSGI node shows it), its prediction time, the verdict against the generic model, and
+``MODEL.fit_report.json`` / ``.md`` beside the fitted model (``write``). learn/fit.py makes the numbers'
+runs; this module measures and writes them."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import files, images, metrics, normalize
+from ..infer import bench, predictor
+from ..learn.validation import evaluate
+
+
+def number(v):
+    """Plain float (or None) for checkpoints (weights_only) and JSON."""
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else (None if math.isnan(v) else v)
+
+
+def arch_label(arch: dict) -> str:
+    if arch.get("backbone") == "unet":
+        return f"unet w{'/'.join(map(str, arch['widths']))} c{'/'.join(map(str, arch['convs']))}"
+    if arch.get("backbone") == "fssgi":
+        return f"fssgi w{arch['width']} {arch['pre']}+{arch['post']}"
+    return str(arch.get("variant"))
+
+
+def as_node(net) -> predictor.Predictor:
+    """``net`` as the node runs it (Predictor.predict: output bound, 0 where the albedo is black)."""
+    return predictor.Predictor(net.eval(), dict(inputs=list(net.arch["inputs"]), arch=dict(net.arch)), path="fit")
+
+
+def time_ms(net, size, repeats: int) -> float:
+    """Fastest of ``repeats`` predictions of a view (ms): the whole Predictor.predict, as the node runs it.
+    The minimum, not the median: the 2 cores are shared, and other processes only ever add time."""
+    w, h = size  # bench's synthetic input holds every stored input group (world included)
+    return bench.time_predictor(as_node(net), w, h, repeats=max(1, repeats))["ms_min"]
+
+
+def score(net, samples) -> dict:
+    """PSNR, tonemapped PSNR and SSIM of the raw network output on ``samples`` (data.Sample), as training's
+    validation scores it (``validation.evaluate``); the fit's decisions use this one. {} without samples."""
+    if not samples:
+        return {}
+    ev = evaluate(net, samples)
+    return dict(psnr=number(ev["val_psnr"]), tm_psnr=number(ev["val_tm_psnr"]), ssim=number(ev["val_ssim"]))
+
+
+def score_node(net, views, keys) -> dict:
+    """The views ``keys`` of ``views`` (data.StoredSamples) scored through Predictor.predict, i.e. what the
+    SSGI node shows (``score`` scores the raw network output). Pooled over the geometry pixels; SSIM with
+    the reference pasted where nothing was hit, as ``evaluate`` does."""
+    keys = views.keys(keys)
+    if not keys:
+        return {}
+    was_training = net.training
+    pred = as_node(net)
+    p, tp, ss = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True), []
+    try:
+        for k in keys:
+            g = views.raw[k]
+            r = metrics.score(pred.predict(g), normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
+                              with_flip=False)
+            p.add_score(r)
+            tp.add_score(r)
+            ss.append(r["ssim"])
+    finally:
+        net.train(was_training)
+    return dict(psnr=number(p.value), tm_psnr=number(tp.value), ssim=number(float(np.mean(ss))))
+
+
+def verdict(final, gen, size, gain_db: float) -> str:
+    """One sentence: does the scene gain (at least ``gain_db`` dB better than the generic model and at most
+    half its prediction time)? ``size``: the views' (height, width)."""
+    # judged on the held-out test views as the node shows them (Predictor.predict); val (raw network
+    # output) only when there are no test views
+    which = "test_node" if final.get("test_node") else "val"
+    fv = final[which].get("psnr")
+    if gen is None:
+        return f"fitted model: {which} PSNR {fv:.2f} dB, {final['ms']:.1f} ms per view (no generic model to compare with)"
+    gv = gen[which].get("psnr")
+    gain = fv - gv
+    key = "ms_big" if final.get("ms_big") and gen.get("ms_big") else "ms"
+    at = final["bench_size"] if key == "ms_big" else f"{size[1]}x{size[0]}"
+    ratio = final[key] / gen[key] if gen[key] else math.nan
+    label = "test, as the node shows it" if which == "test_node" else "val"
+    s = (f"held-out ({label}) PSNR {fv:.2f} dB vs generic {gv:.2f} dB ({gain:+.2f} dB), prediction at {at} "
+         f"{final[key]:.1f} ms vs {gen[key]:.1f} ms ({ratio:.2f}x)")
+    if gain >= gain_db and ratio <= 0.5:
+        return "the scene gains: " + s
+    why = []
+    if gain < gain_db:
+        why.append(f"less than {gain_db:g} dB better")
+    if not ratio <= 0.5:
+        why.append("not at most half the prediction time")
+    return f"the scene does not gain enough ({' and '.join(why)}): " + s
+
+
+def plain(x):
+    """``x`` as plain data for checkpoints and JSON (numbers as ``number``; the key ``net`` left out)."""
+    if isinstance(x, dict):
+        return {str(k): plain(v) for k, v in x.items() if k != "net"}
+    if isinstance(x, (list, tuple)):
+        return [plain(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return number(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    return x
+
+
+def report_paths(model) -> tuple[Path, Path]:
+    m = Path(model)
+    return m.with_name(m.stem + ".fit_report.json"), m.with_name(m.stem + ".fit_report.md")
+
+
+def _n(v, fmt="{:.2f}"):
+    return "-" if v is None else fmt.format(v)
+
+
+def report_markdown(rep: dict, model) -> str:
+    L = [f"# Fit report: {Path(model).name}", "", f"**{rep['verdict']}**", "",
+         f"Views {rep['views']['size'][0]}x{rep['views']['size'][1]}: {len(rep['views']['train'])} train, "
+         f"{len(rep['views']['val'])} val (choose), {len(rep['views']['test'])} test (judge). "
+         f"Target {rep['target_psnr']:.2f} dB val PSNR ({'reached' if rep['target_reached'] else 'NOT reached'}). "
+         f"Fit took {rep['minutes']:.2f} of {rep['budget_minutes']:g} min.", "",
+         "## Size search (smallest first)", "",
+         "| size | architecture | start | params | MACs/px | predict ms | val PSNR | trained s | decision |",
+         "|---|---|---|---:|---:|---:|---:|---:|---|"]
+    for r in rep["rows"]:
+        if r["phase"] == "size":
+            L.append(f"| {r['name']} | {r['arch']} | {r['start']} | {r['params']:,} | {_n(r.get('macs_per_px'), '{:.0f}')} | "
+                     f"{_n(r.get('ms'), '{:.1f}')} | {_n(r.get('val_psnr'))} | {_n(r.get('seconds'), '{:.0f}')} | {r['decision']} |")
+    L += ["", f"## Inputs (drop when val PSNR falls by at most {rep['drop_tol']:g} dB against the control)", "",
+          "| without | inputs | passes rendered | val PSNR | change dB | decision |", "|---|---|---|---:|---:|---|"]
+    for r in rep["rows"]:
+        if r["phase"] == "inputs":
+            d = r.get("delta_db")
+            L.append(f"| {r['group']} | {r.get('spec') or '-'} | {', '.join(p.replace('use_pass_', '') for p in r.get('passes', [])) or '-'} | "
+                     f"{_n(r.get('val_psnr'))} | {_n(None if d is None else -d, '{:+.2f}')} | {r['decision']} |")
+    f, g = rep["final"], rep.get("generic")
+    big = f.get("bench_size") or "-"
+    L += ["", "## Result", "", "Test columns: the held-out views as the SSGI node shows them (Predictor.predict: "
+          "output bound, 0 where the albedo is black); \"raw\" is the network output, as validation scores it.", "",
+          f"| model | inputs | params | predict ms (views' size) | predict ms ({big}) | val PSNR (raw) | "
+          "test PSNR (raw) | test PSNR | test PSNR (tonemapped) | test SSIM |",
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, m in (("fitted", f), ("generic", g)):
+        if m:
+            tn = m.get("test_node") or {}
+            L.append(f"| {name} ({m['arch']}) | {','.join(m['inputs'])} | {m['params']:,} | {_n(m['ms'], '{:.1f}')} | "
+                     f"{_n(m.get('ms_big'), '{:.1f}')} | {_n(m['val'].get('psnr'))} | {_n(m['test'].get('psnr'))} | "
+                     f"{_n(tn.get('psnr'))} | {_n(tn.get('tm_psnr'))} | {_n(tn.get('ssim'), '{:.3f}')} |")
+    if rep.get("polish"):
+        p = rep["polish"]
+        L += ["", f"Polish (the kept network, kept inputs, the rest of the budget): val {_n(p['before'])} -> "
+              f"{_n(p['after'])} dB in {_n(p['seconds'], '{:.0f}')} s of training."]
+    L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]
+    return "\n".join(L)
+
+
+def write(report: dict, model) -> tuple[Path, Path]:
+    """Write ``report`` as MODEL.fit_report.json and .md beside ``model`` (atomically); returns both paths."""
+    jpath, mpath = report_paths(model)
+    files.write_json(jpath, report, indent=1)
+    files.write_text(mpath, report_markdown(report, model))
+    return jpath, mpath

@@ -1,0 +1,117 @@
+"""The fit's input ablation (bpy-free): which input groups a network fitted to one scene can do without.
+
+``droppable`` lists the groups a head does not need, in the channel spec's ablation order
+(``channels.drop_order``: `world` first, a whole second EEVEE render); ``drop_inputs`` cuts a group's
+channels out of the weights that read the input and keeps every other weight (weight surgery);
+``select_inputs`` runs the ablation with them (learn/fit.py, step 3).
+"""
+from __future__ import annotations
+
+import torch
+
+from .. import channels as ch
+from .. import normalize
+from ..errors import UserError
+from ..evaluate.fit_report import number
+from . import network
+
+
+def drop_inputs(net, new_spec) -> torch.nn.Module:
+    """A network for ``new_spec`` (a sub-sequence of ``net``'s input spec, same order) with ``net``'s weights:
+    every weight that reads the input tensor (the first conv, and the layer where the input is concatenated
+    again; in both backbones the input comes LAST in the concatenation) keeps the columns of the kept
+    channels; every other weight is copied as it is."""
+    old_spec = tuple(net.arch["inputs"])
+    new_spec = ch.parse_spec(new_spec)
+    if [g for g in old_spec if g in new_spec] != list(new_spec):
+        raise UserError(f"inputs {ch.format_spec(new_spec)} are not a sub-sequence of {ch.format_spec(old_spec)}")
+    lay = normalize.layout(old_spec)
+    kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
+    c_old, c_new = ch.input_channels(old_spec), len(kept)
+    arch = dict(net.arch, inputs=list(new_spec))
+    new = network.build(arch)
+    old_sd, new_sd = net.state_dict(), new.state_dict()
+    out = {}
+    for k, w in new_sd.items():
+        o = old_sd[k]
+        if o.shape == w.shape:
+            out[k] = o.detach().clone()
+            continue
+        if o.dim() != 4 or o.shape[1] - w.shape[1] != c_old - c_new or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
+            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs {ch.format_spec(new_spec)} {tuple(w.shape)}")
+        base = o.shape[1] - c_old
+        cols = list(range(base)) + [base + i for i in kept]
+        out[k] = o[:, cols].detach().clone()
+    new.load_state_dict(out)
+    return new
+
+
+def droppable(spec, head: str) -> list[str]:
+    need = network.HEAD_NEEDS.get(head, ())
+    return [g for g in ch.drop_order() if g in spec and g not in need]
+
+
+def select_inputs(net, train, seconds: float, drop_tol: float, rows: list, log) -> tuple:
+    """Which input groups ``net`` can do without. ``train(name, arch, spec, seconds, init_state)`` -> (net with
+    the best val weights, summary with ``val_psnr`` and ``minutes``) fine-tunes for ``seconds``; every run gets
+    the same time. The control fine-tunes ``net`` on its own inputs; each droppable group is tried alone (its
+    input weights cut out of ``net`` by ``drop_inputs``); a group can go when the val PSNR without it is at most
+    ``drop_tol`` dB below the control's. Every trial starts from ``net``, so the comparison is fair; when
+    several can go, their union is checked together (one more run), and when that costs more than
+    ``drop_tol`` only the cheapest goes. One row per decision is appended to ``rows``.
+    Returns (net, spec, control val PSNR; None when nothing is droppable)."""
+    spec = tuple(net.arch["inputs"])
+    head = net.arch.get("head", "log")
+    groups = droppable(spec, head)
+    for g in spec:
+        if g not in groups:
+            rows.append(dict(phase="inputs", group=g, spec=None, decision=f"kept (the {head} head needs it)"))
+    if not groups:
+        rows.append(dict(phase="inputs", group="(all)", decision="nothing to drop"))
+        return net, spec, None
+
+    def row(group, sp, r, delta, decision):
+        rows.append(dict(phase="inputs", group=group, spec=ch.format_spec(sp), passes=list(ch.required_passes(sp)),
+                         val_psnr=r["val_psnr"], delta_db=number(delta), seconds=number(60 * r["minutes"]),
+                         decision=decision))
+
+    ctrl_net, rc = train("control", dict(net.arch), spec, seconds, net.state_dict())
+    control = rc["val_psnr"]
+    row("(none: control)", spec, rc, 0.0, "control")
+    log(f"inputs: control (all of {ch.format_spec(spec)}): val {control:.2f} dB")
+    ok, deltas, nets = [], {}, {}
+    for g in groups:
+        new_spec = tuple(x for x in spec if x != g)
+        trial = drop_inputs(net, new_spec)
+        nets[g], rt = train(f"drop-{g}", dict(trial.arch), new_spec, seconds, trial.state_dict())
+        deltas[g] = control - rt["val_psnr"]
+        good = deltas[g] <= drop_tol
+        row(g, new_spec, rt, deltas[g], "can go" if good else "kept")
+        log(f"inputs: without {g}: val {rt['val_psnr']:.2f} dB ({-deltas[g]:+.2f} dB vs control) -> "
+            + ("can go" if good else "kept"))
+        if good:
+            ok.append(g)
+    if not ok:
+        return ctrl_net, spec, control
+    new_spec = tuple(x for x in spec if x not in ok)
+    if len(ok) > 1:  # together they may cost more than each alone
+        trial = drop_inputs(net, new_spec)
+        tnet, rt = train("drop-" + "+".join(ok), dict(trial.arch), new_spec, seconds, trial.state_dict())
+        delta = control - rt["val_psnr"]
+        good = delta <= drop_tol
+        row(" + ".join(ok), new_spec, rt, delta, "dropped together" if good else "too much together")
+        log(f"inputs: without {' + '.join(ok)}: val {rt['val_psnr']:.2f} dB ({-delta:+.2f} dB) -> "
+            + ("dropped" if good else "too much together; dropping only the cheapest"))
+        if good:
+            _mark_dropped(rows, ok)
+            return tnet, new_spec, control
+        ok = [min(ok, key=lambda g: deltas[g])]
+        new_spec = tuple(x for x in spec if x not in ok)
+    _mark_dropped(rows, ok)
+    return nets[ok[0]], new_spec, control
+
+
+def _mark_dropped(rows, groups):
+    for r in rows:
+        if r.get("phase") == "inputs" and r.get("group") in groups:
+            r["decision"] = "dropped"
