@@ -1,11 +1,12 @@
 """Scene settings of SSGI (``scene.ssgi``), shown by the panels and read by the operators. Their defaults are
-the stages' (BakeConfig, FitSceneConfig, ReportConfig), so the UI and the command line start from the same
+the stages' (TrainConfig, BakeConfig, FitSceneConfig, ReportConfig), so the UI and the command line start from the same
 settings; paths.py turns the path settings into absolute paths."""
 from __future__ import annotations
 
 import bpy
 
 from ..model.learn import variants as _variants
+from ..model.learn.config import DEFAULT_MINUTES as _TRAIN_MINUTES, TrainConfig as _Train
 from .blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
 from .pipeline.bake import BakeConfig as _Bake
 from .pipeline.fit import FitSceneConfig as _Fit
@@ -18,23 +19,23 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                           description="Folder of the baked dataset (EXR samples + manifest.json)")
     model_path: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
                                          description="Model checkpoint (.pt); empty uses the shipped default model")
-    # Train panel (ssgi_addon/training.py)
+    # Train panel (ssgi_addon/pipeline/training.py, runtime/ui_jobs.py train)
     train_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
                                         description="Checkpoint the training writes (best so far); empty: model.pt in the dataset folder")
-    train_variant: bpy.props.EnumProperty(name="Network", default=_variants.DEFAULT,
+    train_variant: bpy.props.EnumProperty(name="Network", default=_Train.variant,
                                           items=[(v, v, f"network variant {v}") for v in _variants.TRAINABLE])
-    train_minutes: bpy.props.FloatProperty(name="Minutes", default=10.0, min=0.05, soft_max=240.0,
+    train_minutes: bpy.props.FloatProperty(name="Minutes", default=_TRAIN_MINUTES, min=0.05, soft_max=240.0,
                                            description="Training time budget")
     train_resume: bpy.props.BoolProperty(name="Resume", default=False,
                                          description="Continue the last training of this model (its .last.pt)")
-    # Report panel (ssgi_addon/report_cli.py)
+    # Report panel (ssgi_addon/pipeline/report.py)
     report_models: bpy.props.StringProperty(name="More models", default="",
                                             description="More checkpoints to compare, separated by ';' (network sizes, the linear baseline)")
     report_out: bpy.props.StringProperty(name="Report folder", subtype="DIR_PATH", default="",
                                          description="Where report.md, pareto.png, examples.png go; empty: ssgi_report beside the dataset")
     report_max_scenes: bpy.props.IntProperty(name="Scenes", default=_Report.max_scenes, min=1, soft_max=50,
                                              description="Evaluate at most this many validation scenes")
-    # Fit to Scene panel (ssgi_addon/fit.py)
+    # Fit to Scene panel (ssgi_addon/pipeline/fit.py)
     fit_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
                                       description="The fitted model (.pt); empty: <file>_<scene>_ssgi_fit.pt beside the .blend")
     fit_views: bpy.props.IntProperty(name="Views", default=_Fit.views, min=4, soft_max=200,

@@ -42,7 +42,7 @@ import copy
 import math
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +50,7 @@ import torch
 
 from .. import channels as ch
 from . import checkpoint, curves, data, network
+from .config import DEFAULT_MINUTES, TrainConfig
 from .validation import evaluate, geometry
 from .. import files, normalize
 from ..errors import UserError
@@ -62,45 +63,6 @@ EXPLODE = 50.0
 
 class Diverged(UserError):
     pass
-
-
-@dataclass
-class TrainConfig:
-    data: str
-    out: str
-    variant: str = network.DEFAULT_VARIANT
-    inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)
-    arch: dict = field(default_factory=dict)  # overrides of the variant's settings, e.g. {"width": 32}
-    minutes: float | None = None
-    epochs: int | None = None
-    resume: bool = False
-    optimizer: str = "adam"
-    lr: float | None = None
-    clip: float | None = None
-    batch: int = 16
-    crop: int = 64
-    crops_per_image: int | None = None
-    early_stop: int | None = None
-    threads: int | None = None
-    seed: int = 0
-    val_fraction: float = 0.2
-    command: str | None = None
-
-    def check(self) -> None:
-        if self.optimizer not in ("adam", "sgd"):
-            raise UserError(f"--optimizer must be adam or sgd, not {self.optimizer!r}")
-        for name in ("batch", "crop", "epochs", "crops_per_image", "early_stop", "threads"):
-            v = getattr(self, name)
-            if v is not None and v < 1:
-                raise UserError(f"--{name.replace('_', '-')} must be >= 1 (got {v})")
-        if self.minutes is not None and not self.minutes > 0:
-            raise UserError(f"--minutes must be > 0 (got {self.minutes})")
-        if self.lr is not None and not (self.lr > 0 and math.isfinite(self.lr)):
-            raise UserError(f"--lr must be a positive number (got {self.lr})")
-        if not 0 < self.val_fraction < 1:
-            raise UserError(f"validation fraction must be in (0, 1) (got {self.val_fraction})")
-        if self.variant == "linear":
-            raise UserError("the linear variant is fitted in closed form: use `cli.py baseline`")
 
 
 class Trainer:
@@ -147,7 +109,7 @@ class Trainer:
             else:
                 self.log(f"--resume: no {self.last} yet, starting a new training")
         if cfg.epochs is None and cfg.minutes is None:
-            cfg.minutes = 10.0
+            cfg.minutes = DEFAULT_MINUTES
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
         spec = ch.parse_spec(cfg.inputs)

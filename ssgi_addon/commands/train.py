@@ -23,7 +23,7 @@ def _arch_overrides(text: str | None) -> dict:
 
 
 def run_train(args) -> dict:
-    from ...model.learn.train import TrainConfig
+    from ...model.learn.config import TrainConfig
     from tqdm import tqdm
 
     from ..pipeline import learn
@@ -84,6 +84,7 @@ def run_curves(args) -> dict:
 def register_cli(sub) -> None:
     from ...model import channels as ch
     from ...model.learn import variants
+    from ...model.learn.config import DEFAULT_MINUTES, TrainConfig as T
 
     p = sub.add_parser("train", help="train a network on a baked dataset",
                        description="Train a network on a dataset folder. MODEL is the best checkpoint so far "
@@ -91,24 +92,26 @@ def register_cli(sub) -> None:
                                    "MODEL.curve.png the learning curve.")
     p.add_argument("--data", required=True, metavar="DIR", help="dataset folder (manifest.json + EXR samples)")
     p.add_argument("--out", required=True, metavar="MODEL", help="checkpoint to write (e.g. models/ssgi.pt)")
-    p.add_argument("--variant", default=variants.DEFAULT, choices=variants.TRAINABLE,
-                   help=f"network variant (default {variants.DEFAULT})")
+    p.add_argument("--variant", default=T.variant, choices=variants.TRAINABLE,
+                   help=f"network variant (default {T.variant})")
     p.add_argument("--arch", metavar="JSON", help='override variant settings, e.g. \'{"width": 32}\'')
-    p.add_argument("--inputs", default=ch.format_spec(ch.DEFAULT_INPUTS), metavar="SPEC",
+    p.add_argument("--inputs", default=T.inputs, metavar="SPEC",
                    help="input groups, comma-separated (default: %(default)s)")
-    p.add_argument("--minutes", type=float, help="time budget in minutes (default 10 when --epochs is not given)")
+    p.add_argument("--minutes", type=float,
+                   help=f"time budget in minutes (default {DEFAULT_MINUTES:g} when --epochs is not given)")
     p.add_argument("--epochs", type=int, help="number of epochs")
     p.add_argument("--resume", action="store_true", help="continue from MODEL.last.pt (same steps, optimizer, RNG)")
-    p.add_argument("--optimizer", default="adam", choices=("adam", "sgd"))
+    p.add_argument("--optimizer", default=T.optimizer, choices=("adam", "sgd"))
     p.add_argument("--lr", type=float, help="learning rate (default 1e-3 adam, 1e-2 sgd)")
     p.add_argument("--clip", type=float, help="gradient-norm clipping (default 1.0 for sgd, off for adam)")
-    p.add_argument("--batch", type=int, default=16, help="crops per batch (default %(default)s)")
-    p.add_argument("--crop", type=int, default=64, help="crop size in pixels (default %(default)s)")
+    p.add_argument("--batch", type=int, default=T.batch, help="crops per batch (default %(default)s)")
+    p.add_argument("--crop", type=int, default=T.crop, help="crop size in pixels (default %(default)s)")
     p.add_argument("--crops-per-image", type=int, help="crops of each image per epoch (default: image area / crop area)")
     p.add_argument("--early-stop", type=int, metavar="N", help="stop after N epochs without validation improvement")
     p.add_argument("--threads", type=int, help="torch threads (default: torch's own, all cores)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--val-fraction", type=float, default=0.2, help="share of scenes for validation (default %(default)s)")
+    p.add_argument("--seed", type=int, default=T.seed)
+    p.add_argument("--val-fraction", type=float, default=T.val_fraction,
+                   help="share of scenes for validation (default %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
 

@@ -11,7 +11,7 @@ from ..paths import required_path, scene_path
 
 def config_from_scene(scene):
     """A TrainConfig from ``scene.ssgi`` (main thread only)."""
-    from ...model.learn.train import TrainConfig
+    from ...model.learn.config import TrainConfig
 
     s = scene.ssgi
     data = required_path(s.dataset_dir, "dataset folder")

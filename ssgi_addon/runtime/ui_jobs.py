@@ -169,7 +169,7 @@ def fit(scene, blend_copy: str, out: str, views: int, minutes: float, target_psn
 
 # ------------------------------------------------------------------------------------------------ report
 
-def report(data, models, out, max_scenes: int = 6, options: str = "") -> jobs.ChildJob:
+def report(data, models, out, max_scenes: int, options: str = "") -> jobs.ChildJob:
     """``cli.py report`` as a child process (not started; the user's file is never touched: the report opens
     and builds its own scenes). ``options``: more command-line options, shell-style. The result is the
     summary read back from OUT/report.json (files, scenes, the default model's verdict)."""

@@ -1,0 +1,54 @@
+"""The training settings (torch-free, so that the Blender UI and argparse read their defaults without torch).
+
+``TrainConfig`` is what ``cli.py train``, the Train panel and ``model.learn.train.Trainer`` share; its field
+defaults are the defaults of all three. ``minutes`` None with ``epochs`` None trains ``DEFAULT_MINUTES``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .. import channels as ch
+from ..errors import UserError
+from . import variants
+
+DEFAULT_MINUTES = 10.0
+
+
+@dataclass
+class TrainConfig:
+    data: str
+    out: str
+    variant: str = variants.DEFAULT
+    inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)
+    arch: dict = field(default_factory=dict)  # overrides of the variant's settings, e.g. {"width": 32}
+    minutes: float | None = None
+    epochs: int | None = None
+    resume: bool = False
+    optimizer: str = "adam"
+    lr: float | None = None
+    clip: float | None = None
+    batch: int = 16
+    crop: int = 64
+    crops_per_image: int | None = None
+    early_stop: int | None = None
+    threads: int | None = None
+    seed: int = 0
+    val_fraction: float = 0.2
+    command: str | None = None
+
+    def check(self) -> None:
+        if self.optimizer not in ("adam", "sgd"):
+            raise UserError(f"--optimizer must be adam or sgd, not {self.optimizer!r}")
+        for name in ("batch", "crop", "epochs", "crops_per_image", "early_stop", "threads"):
+            v = getattr(self, name)
+            if v is not None and v < 1:
+                raise UserError(f"--{name.replace('_', '-')} must be >= 1 (got {v})")
+        if self.minutes is not None and not self.minutes > 0:
+            raise UserError(f"--minutes must be > 0 (got {self.minutes})")
+        if self.lr is not None and not (self.lr > 0 and math.isfinite(self.lr)):
+            raise UserError(f"--lr must be a positive number (got {self.lr})")
+        if not 0 < self.val_fraction < 1:
+            raise UserError(f"validation fraction must be in (0, 1) (got {self.val_fraction})")
+        if self.variant == "linear":
+            raise UserError("the linear variant is fitted in closed form: use `cli.py baseline`")
