@@ -330,7 +330,7 @@ def render_world(scene, samples: int = 1) -> np.ndarray:
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
-    hit (tests/test_bake.py checks that Diffuse Direct is the same either way)."""
+    hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way)."""
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
     for g in groups:
         if g not in EEVEE_GROUPS:

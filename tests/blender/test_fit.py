@@ -249,7 +249,7 @@ json.dump(r, open({str(res)!r}, "w"))
 def test_fit_stage_runs_from_python_with_a_config(views, generic, tmp_path):
     """The fit stage without argparse: a FitSceneConfig on views baked before (roles derived from their
     cameras) -> pipeline.fit.run -> the summary; the held-out views are those of the derived plan's cameras."""
-    from ssgi.model.learn import fit
+    from ssgi.model.evaluate import fit_report
     from ssgi.ssgi_addon.blender import views as fviews
     from ssgi.ssgi_addon.pipeline import fit as sfit
     from ssgi.ssgi_addon.pipeline import fit as sfit
@@ -265,5 +265,5 @@ def test_fit_stage_runs_from_python_with_a_config(views, generic, tmp_path):
     fit_info = checkpoint.load(out)["fit"]
     for role in ("val", "test"):
         assert sorted(fit_info["views"][role]) == sorted(k for k, c in cam.items() if plan["cameras"][c] == role)
-    rep = json.loads(fit.report_paths(out)[0].read_text())
+    rep = json.loads(fit_report.report_paths(out)[0].read_text())
     assert rep["total_minutes"] == pytest.approx(res["total_minutes"]) and rep["bake_minutes"] == 0
