@@ -263,20 +263,20 @@ class ReportRun:
             self._step(f"{name}: {Path(path).name} {t_p * 1000:.0f} ms")
         for k in GI_PRESETS:
             img, t = _timed(render_eevee_gi, scene, k, s.eevee_samples if k == "default" else s.eevee_high_samples)
-            self._score(f"eevee_gi_{k}", name, es.light(img), ref, mask, dict(render_s=t, whole_s=t, own_s=t))
+            self._score(f"eevee_gi_{k}", name, img, ref, mask, dict(render_s=t, whole_s=t, own_s=t))
             self._step(f"{name}: EEVEE GI {k} {t:.2f} s")
         for spp in s.spp:
             img, t_r = _timed(passes.render_cycles, scene, spp, seed=LADDER_SEED, denoise=False)
-            self._score(f"cycles_{spp}", name, es.light(img["ref"]), ref, mask, dict(render_s=t_r, whole_s=t_r, own_s=t_r))
+            self._score(f"cycles_{spp}", name, img["ref"], ref, mask, dict(render_s=t_r, whole_s=t_r, own_s=t_r))
             self._step(f"{name}: Cycles {spp} spp {t_r:.2f} s")
             img, t_o = _timed(passes.render_cycles, scene, spp, seed=LADDER_SEED, denoise=True)
-            self._score(f"cycles_oidn_{spp}", name, es.light(img["ref"]), ref, mask,
+            self._score(f"cycles_oidn_{spp}", name, img["ref"], ref, mask,
                         dict(render_s=t_r, denoise_s=max(0.0, t_o - t_r), whole_s=t_o, own_s=t_o))
             self._step(f"{name}: Cycles {spp} spp + OIDN {t_o:.2f} s")
         if index < s.reference_scenes:
             seed = int(es.meta.get("seed", 0)) + REF_SEED_OFFSET
             img, t = _timed(passes.render_cycles, scene, s.ref_samples, seed=seed, denoise=s.ref_denoise)
-            self._score("reference", name, es.light(img["ref"]), ref, mask, dict(render_s=t, whole_s=t, own_s=t))
+            self._score("reference", name, img["ref"], ref, mask, dict(render_s=t, whole_s=t, own_s=t))
             self._step(f"{name}: reference again {t:.2f} s")
 
     # --- after the scenes
@@ -338,10 +338,10 @@ class ReportRun:
             for key, (path, pred) in self._model_keys.items():
                 seqs.setdefault(self.raw["methods"][key]["label"], []).append(pred.predict(g))
             if rung is not None:
-                img = es.light(passes.render_cycles(scene, rung[0], seed=LADDER_SEED, denoise=True)["ref"])
+                img = passes.render_cycles(scene, rung[0], seed=LADDER_SEED, denoise=True)["ref"]
                 seqs.setdefault(f"Cycles {rung[0]} spp + OIDN (equal time)", []).append(img)
-            refs.append(es.light(passes.render_cycles(scene, s.temporal_ref_samples, seed=int(es.meta.get("seed", 0)),
-                                                      denoise=s.ref_denoise)["ref"]))
+            refs.append(passes.render_cycles(scene, s.temporal_ref_samples, seed=int(es.meta.get("seed", 0)),
+                                             denoise=s.ref_denoise)["ref"])
             self.log(f"temporal: frame {i + 1}/{frames}")
         res = {name: analysis.temporal_change(imgs, refs) for name, imgs in seqs.items()}
         return dict(scene=es.name, frames=frames, ref_samples=s.temporal_ref_samples, methods=res,

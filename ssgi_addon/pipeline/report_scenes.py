@@ -2,8 +2,9 @@
 
 ``dataset_scenes`` picks the validation scenes of the split the models were trained with, one sample each,
 rebuilt from the sample's room seed (or reopened from its .blend, camera and frame); the stored Cycles
-reference is the target. A sample's ``exposure`` (a factor the dataset applied to every light image after
-rendering) is applied to every image rendered here too.
+reference is the target. A sample whose manifest entry records an ``exposure`` other than 1 (the scaling
+the removed stand-in baker docs/model_minibake.py applied after rendering; ``cli.py bake`` never does) is
+refused with a one-line error: re-bake such a folder with ``cli.py bake``.
 """
 from __future__ import annotations
 
@@ -29,15 +30,14 @@ class EvalScene:
     open: Callable[[], object]  # opens/builds the scene, sets camera and frame; returns the bpy scene
     ref: np.ndarray  # the stored Cycles reference (HxWx3): the target
     meta: dict = field(default_factory=dict)
-    exposure: float = 1.0  # the dataset scaled every light image of this sample by this after rendering
     stored_eevee: np.ndarray | None = None  # the dataset's own EEVEE direct image: checks the rebuilt scene
 
     t_raster: float = 0.0  # seconds of the last gbuffer(): the direct-only raster ...
     t_world: float = 0.0  # ... and the world pass (0 when not rendered, or for a black world)
 
     def gbuffer(self, scene, samples: int = 1, world: bool = True) -> dict[str, np.ndarray]:
-        """passes.render_gbuffer with the light groups scaled by ``exposure`` (as the dataset stored them). The
-        world pass (a second render, only for an open scene) is timed apart: only models that read it pay it."""
+        """passes.render_gbuffer of the scene. The world pass (a second render, only for an open scene) is timed
+        apart: only models that read it pay it."""
         t0 = time.perf_counter()
         w = passes.render_world(scene, samples=samples) if world else None
         t1 = time.perf_counter()
@@ -45,17 +45,7 @@ class EvalScene:
         self.t_world, self.t_raster = t1 - t0, time.perf_counter() - t1
         if w is not None:
             g["world"] = w
-        if self.exposure != 1.0:
-            k = np.float32(self.exposure)
-            for lg in ("direct", "world"):
-                if lg in g:
-                    g[lg] = g[lg] * k
-            g["eevee"] = np.concatenate([g["eevee"][..., :3] * k, g["eevee"][..., 3:]], -1)
         return g
-
-    def light(self, img: np.ndarray) -> np.ndarray:
-        """A rendered HxWx3 image scaled by ``exposure`` (light transport is linear in the lights' power)."""
-        return img if self.exposure == 1.0 else img * np.float32(self.exposure)
 
 
 # --------------------------------------------------------------------------------------------- scenes
@@ -150,6 +140,10 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     out = []
     for sc, key in keys:
         meta = m["samples"][key]
+        if float(meta.get("exposure", 1.0)) != 1.0:
+            raise UserError(f"{root / 'manifest.json'}: sample {key} records exposure {meta['exposure']!r}, a scaling "
+                            "of the removed stand-in baker (docs/model_minibake.py); re-bake the folder with "
+                            "`cli.py bake`")
         path = dataset.sample_path(root, key)
         stored = exrio.read_sample(path, (ch.TARGET_GROUP, "eevee"))
         if meta.get("blend"):
@@ -162,7 +156,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
         else:
             raise UserError(f"{root / 'manifest.json'}: sample {key} names neither a room seed nor a .blend file")
         out.append(EvalScene(name=name, open=opener, ref=stored[ch.TARGET_GROUP][..., :3], meta=dict(meta, key=key),
-                             exposure=float(meta.get("exposure", 1.0)), stored_eevee=stored["eevee"][..., :3]))
+                             stored_eevee=stored["eevee"][..., :3]))
     # a bake with an agreement target records each reference's own samples: the second reference takes as many
     spps = sorted(int(m["samples"][k]["reference"]["samples"]) for _sc, k in keys
                   if isinstance(m["samples"][k].get("reference"), dict))

@@ -149,6 +149,24 @@ def test_dataset_split_follows_the_models_checkpoint(e2e):
     assert [s.name for s in scenes] == ["room4"] and any("left out 1 scene(s)" in n and "room3" in n for n in notes)
 
 
+def test_a_sample_scaled_by_the_removed_stand_in_baker_is_refused(e2e, tmp_path):
+    """docs/model_minibake.py (removed) scaled a sample's lights by an ``exposure`` it recorded in the manifest;
+    cli.py bake never does. The report refuses such a folder with one line instead of scoring it unscaled."""
+    import json
+    import shutil
+
+    from ssgi.model.errors import UserError
+    from ssgi.ssgi_addon.pipeline import report_scenes as rr
+    d = shutil.copytree(e2e["out"] / "data", tmp_path / "data")
+    m = json.loads((d / "manifest.json").read_text())
+    assert all("exposure" not in s for s in m["samples"].values())  # the baker records none
+    key = sorted(m["samples"])[0]
+    m["samples"][key]["exposure"] = 2.0
+    (d / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(UserError, match=rf"sample {key} records exposure 2.0.*re-bake the folder"):
+        rr.dataset_scenes(d, [], split="all")
+
+
 def test_cli_errors_name_the_fault(tmp_path, tiny_models):
     f = tmp_path / "file.txt"
     f.write_text("x")
