@@ -20,6 +20,25 @@ import time
 from pathlib import Path
 
 TEMP_RE = re.compile(r"^\.(?P<final>.+)\.(?P<pid>\d+)\.tmp$")
+# Temporary names of the code before the one pattern, still swept so that a folder a killed older run left
+# behind is cleaned too: render frames ``.STEM.PID.tmp.EXT`` (final STEM.EXT) and learning curves
+# ``.NAME.tmp.png`` (final NAME, no pid).
+LEGACY_TEMP_RES = (re.compile(r"^\.(?P<stem>.+)\.(?P<pid>\d+)\.tmp(?P<ext>\.[A-Za-z0-9]+)$"),
+                   re.compile(r"^\.(?P<final>.+\.png)\.tmp\.png$"))
+
+
+def _temp_match(name: str) -> tuple[str, int | None] | None:
+    """(final name, writer's pid or None) of a temporary file's name, or None for any other name."""
+    m = TEMP_RE.match(name)
+    if m:
+        return m.group("final"), int(m.group("pid"))
+    m = LEGACY_TEMP_RES[0].match(name)
+    if m:
+        return m.group("stem") + m.group("ext"), int(m.group("pid"))
+    m = LEGACY_TEMP_RES[1].match(name)
+    if m:
+        return m.group("final"), None
+    return None
 
 
 def temp_path(path) -> Path:
@@ -71,7 +90,8 @@ def _alive(pid: int) -> bool:
 
 
 def sweep(folder, owned=None, min_age_s: float | None = None) -> list[str]:
-    """Delete the temporary files (``TEMP_RE``) in ``folder``; never a final name. Returns the names removed.
+    """Delete the temporary files (``TEMP_RE``, and the older ``LEGACY_TEMP_RES``) in ``folder``; never a final
+    name. Returns the names removed.
 
     ``owned(final_name) -> bool`` limits this to the files of one job (a shard's samples and manifest), so
     that a job (re)started beside a running one never deletes the other's file in flight. With ``min_age_s``
@@ -85,12 +105,12 @@ def sweep(folder, owned=None, min_age_s: float | None = None) -> list[str]:
     removed = []
     now = time.time()
     for p in folder.iterdir():
-        m = TEMP_RE.match(p.name)
-        if m is None or (owned is not None and not owned(m.group("final"))):
+        m = _temp_match(p.name)
+        if m is None or (owned is not None and not owned(m[0])):
             continue
         if min_age_s is not None:
-            pid = int(m.group("pid"))
-            if pid == os.getpid() or _alive(pid):
+            pid = m[1]
+            if pid is None or pid == os.getpid() or _alive(pid):
                 continue
             with contextlib.suppress(OSError):
                 if now - p.stat().st_mtime < min_age_s:

@@ -116,7 +116,8 @@ class JobSteps(TimerSteps):
         self._job.cancel()
 
     def steps_finished(self, context):
-        self.report({"INFO"}, self.summary_text(self._job.result))
+        res = self._job.result
+        self.report({"INFO"}, self.summary_text(res) if res else f"{self.bl_label}: {self._job.state['status']}")
         self.job_finished(context, self._job)
 
     def job_finished(self, context, job) -> None:

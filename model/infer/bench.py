@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import channels as ch
+from .. import channels as ch, cliargs, files
 from ..errors import UserError
 
 
@@ -56,15 +56,6 @@ def synthetic_groups(w: int, h: int, seed: int = 0) -> dict[str, np.ndarray]:
             draw = rng.exponential(1.0, (h, w, grp.size)) if grp.kind == "light" else rng.uniform(0, 1, (h, w, grp.size))
             g[name] = draw.astype(np.float32)
     return {k: v for k, v in g.items() if k in ch.GROUPS}
-
-
-def _parse_size(s: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in s.lower().split("x"))
-        assert w > 0 and h > 0
-        return w, h
-    except (ValueError, AssertionError):
-        raise UserError(f"size {s!r} is not WIDTHxHEIGHT (e.g. 240x135)") from None
 
 
 def time_predictor(pred, w: int, h: int, repeats: int = 5) -> dict:
@@ -127,7 +118,7 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
     from . import predictor
 
     torch.set_num_threads(threads)
-    sizes = [_parse_size(s) for s in sizes]
+    sizes = [tuple(cliargs.parse_size(s)) for s in sizes]
     names = list(variants) if variants is not None else list(V.TRAINABLE) + ["linear"]
     for name in names:  # every argument is checked before any timing (issue 13)
         if name not in V.VARIANTS:
@@ -160,5 +151,5 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
                       + (f"  peak +{r['peak_mb']:.0f} MB" if r["peak_mb"] is not None else ""), file=sys.stderr, flush=True)
     res = dict(threads=threads, torch=torch.__version__, rows=rows)
     if out:
-        Path(out).write_text(json.dumps(res, indent=1))
+        files.write_json(out, res)
     return res

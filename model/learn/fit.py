@@ -1,7 +1,7 @@
 """Fit a model to ONE scene (bpy-free): size search smallest first, input-pass ablation, the decision table.
 
 ``fit(FitConfig(...), log=..., callback=..., should_stop=...)`` works on a dataset folder of *views* of one
-scene (baked by ``cli.py bake --scenes``; ssgi_addon/fit.py makes the views) whose samples are split by the
+scene (baked by ``cli.py bake --scenes``; ssgi_addon/blender/views.py makes the views) whose samples are split by the
 caller into three disjoint sets of keys:
 
     train  the views the networks learn from
@@ -31,7 +31,7 @@ Method (one time budget, ``minutes``, shared by all phases; a run stops early wh
    both is measured (``bench.time_predictor`` at the views' size). The table of every run, the decisions and
    the verdict go into the checkpoint (key ``fit``) and into ``MODEL.fit_report.json`` / ``.md`` beside it.
 
-Inputs are built the way the render path builds them (ssgi_addon/render.py): from the stored groups the spec
+Inputs are built the way the render path builds them (ssgi_addon/pipeline/render.py): from the stored groups the spec
 needs plus the normals, which mark the no-geometry pixels for the depth normalisation even when the spec
 drops normals (``normalize.to_inputs``), so a model that keeps depth but drops normals sees what it will see.
 """
@@ -45,12 +45,11 @@ from pathlib import Path
 
 import torch
 
-from .. import channels as ch
+from .. import channels as ch, cliargs
 from ..dataset import folder
 from ..errors import UserError
 from ..evaluate import fit_report
 from ..evaluate.fit_report import arch_label, number, plain
-from ..infer import bench
 from . import ablation, checkpoint, data, network
 from .train import TrainConfig, Trainer
 from .validation import evaluate
@@ -339,7 +338,7 @@ class Fitter:
         ms = self._ms(net)
         big = None
         if cfg.bench_size:
-            w, h = bench._parse_size(cfg.bench_size)
+            w, h = cliargs.parse_size(cfg.bench_size)
             big = (h, w)
         ms_big = self._ms(net, big, 2) if big else None
         if generic:  # time both again, alternating, so that both see the same load on the shared cores

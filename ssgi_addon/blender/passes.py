@@ -23,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-import time
 
 import bpy
 import numpy as np

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 
-from ...model import cliargs, files
+from ...model import cliargs
 from ...model.errors import UserError
 from ..pipeline.fit import FitSceneConfig
 from . import command_line, progress_sink

@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import shlex
 import sys
-from pathlib import Path
 
 from ...model import cliargs
-from ...model.errors import UserError
 from ..pipeline.report import ReportConfig
 from . import progress_sink
 

@@ -82,7 +82,6 @@ def run_curves(args) -> dict:
 
 
 def register_cli(sub) -> None:
-    from ...model import channels as ch
     from ...model.learn import variants
     from ...model.learn.config import DEFAULT_MINUTES, TrainConfig as T
 

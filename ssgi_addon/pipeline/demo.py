@@ -51,8 +51,9 @@ class DemoConfig:
         if min(self.size) < 1 or self.samples < 1 or self.ref_samples < 0 or not self.exposure > 0:
             raise UserError(f"size {self.size}, samples {self.samples}, ref_samples {self.ref_samples}, exposure "
                             f"{self.exposure}: size and samples must be positive, ref_samples >= 0, exposure > 0")
-        if self.model and not Path(self.model).is_file():
-            raise UserError(f"--model {self.model}: no such model file")
+        fault = cliargs.model_file_fault(self.model) if self.model else None
+        if fault:  # a folder, a text file, an image ... named as the model: say what it is, before any work
+            raise UserError(f"--model {self.model}: {fault}")
 
 
 def log(msg: str) -> None:
@@ -122,10 +123,7 @@ def run(cfg: DemoConfig) -> dict:
     model = Path(cfg.model) if cfg.model else node.DEFAULT_MODEL
     if not torch_ok:
         missing.append(f"PyTorch: {torch_info} (the SSGI prediction needs it)")
-    fault = cliargs.model_file_fault(model)
-    if fault and args.model:  # a folder, a text file, an image ... named as the model: say what it is
-        raise UserError(f"--model {args.model}: {fault}")
-    if not model.is_file():
+    if not model.is_file():  # only the shipped default can be missing here: check() refused a bad --model
         missing.append(f"the shipped default model {model} is not there yet (train one, or pass --model)")
 
     summary: dict = {"out": str(out), "seed": cfg.seed, "size": f"{w}x{h}", "model": str(model) if model.is_file() else None,

@@ -36,7 +36,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ...model import channels as ch, cliargs, files
+from ...model import channels as ch, files
 from ...model.errors import UserError
 from ..blender import node as ssgi_node
 from ..blender.compositor import save_multilayer, standins
@@ -195,9 +195,10 @@ class RenderSession:
                 info["path"] = str(path)
                 info["t_write"] = time.perf_counter() - t0
             if self.save_passes is not None:
-                from ...model.dataset import exrio
+                from ...model.dataset import exrio, folder as dataset
                 self.save_passes.mkdir(parents=True, exist_ok=True)
-                exrio.write_sample(self.save_passes / f"{frame:06d}.exr", {g: groups[g] for g in self.groups},
+                saved = dataset.sample_path(self.save_passes, dataset.sample_name(frame))
+                exrio.write_sample(saved, {g: groups[g] for g in self.groups},
                                    half=False, header={"ssgi_frame": frame})
             if self.keep_groups:
                 info["groups"] = groups

@@ -112,7 +112,7 @@ def _bake_scenes(cfg: ReportConfig, out: Path):
                                    ref_samples=cfg.ref_samples or DENOISED_REF_SAMPLES, denoise=True),
                    progress=lambda info: log(f"bake {info['done']}/{info['todo']}: {info}"))
     scenes, over, notes = dataset_scenes(data, (), cfg.max_scenes, "all", per_sample=True)
-    notes.append(f"--scenes: baked by ssgi_addon/bake.py into {data} ({res['baked']} baked, {res['skipped']} already "
+    notes.append(f"--scenes: baked by ssgi_addon/pipeline/bake.py into {data} ({res['baked']} baked, {res['skipped']} already "
                  f"there, {time.perf_counter() - t:.1f} s); every sample evaluated")
     return scenes, dict(over, source="--scenes " + " ".join(str(p) for p in cfg.scenes)), notes
 
@@ -141,7 +141,7 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
         log(f"no linear model given: fitting the linear-regression baseline on {cfg.data} -> {bl}")
         baseline.run_baseline(cfg.data, bl, log=log)
         preds.append((bl, predictor.load_predictor(bl, num_threads=cfg.threads)))
-        notes.append(f"the linear baseline was fitted by this run (model/baseline.py, closed form) on the training "
+        notes.append(f"the linear baseline was fitted by this run (model/learn/baseline.py, closed form) on the training "
                      f"split of {cfg.data}: {bl}")
     n_net = sum(1 for _, pr in preds if pr.kind != "linear")
     if n_net < 3:

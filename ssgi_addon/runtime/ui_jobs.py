@@ -62,9 +62,9 @@ def _bake_steps(out, count, seed, size, ref_samples, denoise, ref_target_db):
         try:
             start = next(gen)  # checks the settings and the folder: errors come now
             todo = start["todo"]
-            yield dict(progress=0.0, done=0, todo=todo, total=start["total"], skipped=start["skipped"],
-                       message=f"0/{todo} samples", detail=f"baking into {out}")
-            try:
+            try:  # a cancel may come before the first sample too: the summary says 0 baked
+                yield dict(progress=0.0, done=0, todo=todo, total=start["total"], skipped=start["skipped"],
+                           message=f"0/{todo} samples", detail=f"baking into {out}")
                 for ev in gen:
                     if ev["event"] == "done":
                         break
@@ -99,7 +99,10 @@ def _render_steps(session):
     written are kept). Returns the session's summary."""
     n = len(session.frames)
     stop = False
-    yield dict(done=0, todo=n, progress=0.0, message=f"Rendering 0/{n}")
+    try:
+        yield dict(done=0, todo=n, progress=0.0, message=f"Rendering 0/{n}")
+    except jobs.Cancelled:
+        stop = True  # cancelled before the first frame: iter_frames renders none and the summary says so
     for info in session.iter_frames(lambda: stop):
         k = len(session.results)
         try:

@@ -1,4 +1,4 @@
-"""The baker (ssgi_addon/bake.py, passes.py; model/dataset.py) on real EEVEE and Cycles at tiny sizes, each bake
+"""The baker (ssgi_addon/pipeline/bake.py, blender/passes.py, blender/reference.py; model/dataset/) on real EEVEE and Cycles at tiny sizes, each bake
 in a subprocess: the dataset folder, resume and repair, shards + merge, --scenes/--frames, bad input, the
 contact sheet, the Bake Dataset operator, and the test that EEVEE's direct-light input is right (it matches
 Cycles' Diffuse Direct pass of the same room with the same small lights)."""

@@ -70,3 +70,30 @@ bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
     assert p.returncode == 2 and "Traceback" not in err
     assert "has no SSGI node" in err and "--setup" in err and "Add > SSGI" in err, err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_every_command_that_takes_a_model_names_a_folder_or_a_text_file_given_as_one(tmp_path):
+    """demo, predict, render and fit --init, each given a folder and a text file as the model: exit 2 with one
+    line that says what the file is (never torch's weights_only advice, never a traceback), before any work."""
+    from ..conftest import ROOT, clean, run_cli
+    fix = ROOT / "tests" / "fixtures"
+    folder, text = tmp_path / "models", tmp_path / "notes.txt"
+    folder.mkdir()
+    text.write_text("not a model\n")
+    for bad, what in ((folder, "a folder"), (text, "a text file")):
+        runs = {
+            "demo": ("demo", "--out", str(tmp_path / "demo"), "--model", str(bad), "--size", "16x9"),
+            "predict": ("predict", "--model", str(bad), "--input", str(fix / "dataset" / "000000.exr"),
+                        "--out", str(tmp_path / "p.exr")),
+            "render": ("render", "--blend", str(fix / "ssgi_scene.blend"), "--model", str(bad),
+                       "--out", str(tmp_path / "r_####")),
+            "fit": ("fit", "--blend", str(fix / "ssgi_scene.blend"), "--out", str(tmp_path / "f.pt"),
+                    "--init", str(bad)),
+        }
+        for name, args in runs.items():
+            p = run_cli(*args, check=False, timeout=300)
+            err = clean(p.stderr)
+            assert p.returncode == 2, (name, what, err[-2000:])
+            assert f"{bad}: not an SSGI model checkpoint ({what}" in err, (name, err[-2000:])
+            assert "Traceback" not in err and "weights_only" not in err, (name, err[-2000:])
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["models", "notes.txt"]  # nothing written

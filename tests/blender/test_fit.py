@@ -252,7 +252,6 @@ def test_fit_stage_runs_from_python_with_a_config(views, generic, tmp_path):
     from ssgi.model.evaluate import fit_report
     from ssgi.ssgi_addon.blender import views as fviews
     from ssgi.ssgi_addon.pipeline import fit as sfit
-    from ssgi.ssgi_addon.pipeline import fit as sfit
     out = tmp_path / "stage.pt"
     events = []
     cfg = sfit.FitSceneConfig(out=str(out), data=str(views), minutes=0.25, init=str(generic), threads=1, crop=32,

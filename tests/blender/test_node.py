@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -293,6 +292,36 @@ json.dump(r, open({str(res)!r}, "w"))
     assert r["state"] == ["cancelled", True, [1]]
     assert sorted(p.name for p in tmp_path.glob("j_*")) == ["j_0001.exr"]
     assert any(l.startswith("Cancelled: 1 frame(s)") for l in r["labels"]), r["labels"]
+
+
+def test_step_jobs_cancelled_before_their_first_step_end_with_a_summary(room, tmp_path):
+    """A Cancel (or Esc, or disabling the add-on) that comes after Render SSGI or Bake Dataset started but before
+    their first timer tick: the job ends "cancelled" with a summary (no frame, no sample), nothing written, and
+    the operator's closing report does not fail on it."""
+    res = tmp_path / "early.json"
+    run_py(f'''
+import json, bpy, ssgi
+from ssgi.ssgi_addon.runtime import jobs, ui_jobs
+ssgi.register()
+bpy.ops.wm.open_mainfile(filepath={str(room["blend"])!r})
+sc = bpy.context.scene
+r = {{}}
+job = ui_jobs.render(sc, [1, 2], out={str(tmp_path / "e_####")!r}).start()
+job.cancel()
+r["render"] = [job.step(), job.state["status"], job.result["cancelled"], job.result["frames"]]
+sc.ssgi.dataset_dir = {str(tmp_path / "data")!r}
+sc.ssgi.bake_count, sc.ssgi.bake_width, sc.ssgi.bake_height = 2, 16, 9
+job = ui_jobs.bake(sc).start()
+job.cancel()
+r["bake"] = [job.step(), job.state["status"], job.result["status"], job.result["baked"]]
+r["scenes"] = sorted(s.name for s in bpy.data.scenes)
+json.dump(r, open({str(res)!r}, "w"))
+''', timeout=300)
+    r = json.loads(res.read_text())
+    assert r["render"] == [False, "cancelled", True, []]
+    assert r["bake"] == [False, "cancelled", "cancelled", 0]
+    assert not list(tmp_path.glob("e_*")) and not list((tmp_path / "data").glob("0*.exr"))
+    assert not any("SSGI Bake" in n for n in r["scenes"])  # the bake's scratch scene is gone
 
 
 def test_blend_reopens_and_renders_without_the_extension(room, rendered):

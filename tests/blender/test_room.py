@@ -1,4 +1,4 @@
-"""The random room (ssgi_addon/room.py, ``cli.py randomize``) on the real bpy module: determinism across
+"""The random room (ssgi_addon/blender/room.py, ``cli.py randomize``) on the real bpy module: determinism across
 processes, counts, camera placement checked against the built meshes, diffuse materials, --save."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Fit to Scene (issue 8): model/fit.py (bpy-free), cli.py fit, the SSGI node rendering a fitted model, the
-Fit to Scene operator. Budgets are seconds; the views are tiny."""
+"""Fit to Scene (issue 8), the bpy-free half: model/learn/fit.py, ablation, the fit report, the fit stage's config
+and the views' plan. Budgets are seconds; the views are tiny. The Blender half is tests/blender/test_fit.py."""
 from __future__ import annotations
 
 import json

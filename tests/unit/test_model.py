@@ -400,6 +400,23 @@ def test_atomic_write_keeps_the_old_file_when_the_writer_fails(tmp_path):
     assert p.read_text() == "old" and sorted(x.name for x in tmp_path.iterdir()) == ["a.json"]
 
 
+def test_sweep_also_removes_what_the_code_before_the_one_pattern_left(tmp_path):
+    """A frame folder and a model folder that a killed run of the older code left: its render temp name
+    .STEM.PID.tmp.EXT and its curve temp name .NAME.tmp.png are swept (owned by their final names); user files
+    that merely look alike stay."""
+    import os
+
+    from ssgi.model import files
+    left = [".ssgi_0002.424242.tmp.png", f".ssgi_0003.{os.getpid()}.tmp.exr", ".model.curve.png.tmp.png"]
+    keep = ["ssgi_0002.png", "model.curve.png", ".notes.tmp.txt", ".shot.tmp.png", "a.1.tmp.png"]
+    for n in left + keep:
+        (tmp_path / n).write_bytes(b"")
+    assert files.sweep(tmp_path, owned=lambda n: n == "ssgi_0002.png") == [".ssgi_0002.424242.tmp.png"]
+    assert files.sweep(tmp_path, min_age_s=0) == []  # a live writer's (this one's), and no pid in a curve's name
+    assert sorted(files.sweep(tmp_path)) == sorted(left[1:])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(keep)
+
+
 def test_sweep_removes_only_temp_files_owned_and_old_of_dead_processes(tmp_path):
     import os
     import subprocess
