@@ -11,10 +11,11 @@ from dataclasses import dataclass
 
 from ...model import channels as ch
 from ...model.errors import UserError
+from ...model.learn.config import TrainConfig
 
 
 def train(cfg, progress=None, should_stop=None, log=None) -> dict:
-    """Train a network (``cfg``: model.learn.train.TrainConfig, which holds the defaults); ``progress(dict)``
+    """Train a network (``cfg``: model.learn.config.TrainConfig, which holds the defaults); ``progress(dict)``
     after each logged step (epoch, loss, val_psnr, progress, eta_s); ``should_stop()`` before every batch."""
     from ...model.learn.train import Trainer
     return Trainer(cfg, log=log).run(callback=progress, should_stop=should_stop)
@@ -25,10 +26,10 @@ class BaselineConfig:
     """The per-pixel linear-regression baseline, fitted in closed form on the training split."""
     data: str  # dataset folder
     out: str  # checkpoint to write
-    inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)
+    inputs: str = TrainConfig.inputs
     space: str = "linear"  # regress linear RGB (the seed's) or "log" (log1p RGB)
-    seed: int = 0  # split seed (the same as train's)
-    val_fraction: float = 0.2  # share of scenes for validation (the same as train's)
+    seed: int = TrainConfig.seed  # split seed: train's, so that both score the same validation scenes
+    val_fraction: float = TrainConfig.val_fraction  # share of scenes for validation (train's)
     command: str | None = None
 
     def check(self) -> None:
