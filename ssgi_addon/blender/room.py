@@ -23,6 +23,7 @@ LIGHT_TYPES = ("POINT", "AREA", "SPOT")
 WALLS = ("floor", "ceiling", "wall_xn", "wall_xp", "wall_yn", "wall_yp")
 MIN_WALL_GAP = 0.6  # the camera stays at least this far (m) from every wall
 CAMERA_CLEARANCE = 0.35  # ... and this far outside every object's bounding sphere
+SHADING = ("Roughness", "Specular IOR Level", "Metallic", "Transmission Weight", "Emission Strength")
 
 # --------------------------------------------------------------------------------------------- parameters
 
@@ -42,8 +43,17 @@ def _half_extent(shape: str, size: float) -> float:
                    "sphere": 1.0, "monkey": 1.49}[shape]
 
 
-def room_params(seed: int) -> dict:
-    """Every random choice of room ``seed`` as plain data (deterministic; no bpy)."""
+MODES = ("diffuse", "artist")
+
+
+def room_params(seed: int, mode: str = "diffuse") -> dict:
+    """Every random choice of room ``seed`` as plain data (deterministic; no bpy). ``mode`` "diffuse": the
+    seed's box of diffuse primitives and lamps; "artist": room_artist.py's artist scenes."""
+    if mode == "artist":
+        from .room_artist import artist_params
+        return artist_params(seed)
+    if mode != "diffuse":
+        raise ValueError(f"room mode {mode!r}: expected one of {', '.join(MODES)}")
     rng = random.Random(int(seed))
     W, D, H = rng.uniform(3.5, 7.0), rng.uniform(3.5, 7.0), rng.uniform(2.5, 3.8)
     surfaces = {w: _colour(rng, 0.8, 0.2, 0.85) for w in WALLS}
@@ -193,14 +203,23 @@ def clear_room(scene) -> None:
     bpy.data.batch_remove([m for m in bpy.data.materials if m.get("ssgi_room") and m.users == 0])
     bpy.data.batch_remove([m for m in bpy.data.meshes if m.get("ssgi_room") and m.users == 0])
     bpy.data.batch_remove([w for w in bpy.data.worlds if w.get("ssgi_room") and w.users == 0])
+    bpy.data.batch_remove([i for i in bpy.data.images if i.get("ssgi_room") and i.users == 0])
 
 
-def build_room(seed: int, scene=None):
-    """Build random room ``seed`` into ``scene`` (a new scene when None; a previous room there is replaced)."""
-    prm = room_params(seed)
+def build_room(seed: int, scene=None, mode: str = "diffuse"):
+    """Build random room ``seed`` of ``mode`` (room_params) into ``scene`` (a new scene when None; a previous
+    room there is replaced)."""
+    prm = room_params(seed, mode)
     if scene is None:
         scene = bpy.data.scenes.new(f"SSGI Room {seed}")
     clear_room(scene)
+    if mode == "artist":
+        from .room_artist_build import build
+        build(prm, scene)
+        scene["ssgi_room_seed"], scene["ssgi_room_mode"] = int(seed), mode
+        return scene
+    if "ssgi_room_mode" in scene:
+        del scene["ssgi_room_mode"]
     W, D, H = prm["size"]
 
     # the box: six planes (the grid is 2x2 m, scaled), normals pointing into the room
@@ -270,14 +289,20 @@ def build_room(seed: int, scene=None):
 def describe_scene(scene) -> dict:
     """Names, transforms, colours and light settings of ``scene``'s room objects (for tests and manifests)."""
     out = {}
+    artist = scene.get("ssgi_room_mode") == "artist"  # (diffuse rooms: the description they always had)
     for o in sorted(scene.objects, key=lambda o: o.name):
         # matrix_basis, not matrix_world: the latter is stale until the depsgraph is evaluated
         d = dict(type=o.type, location=tuple(round(v, 5) for v in o.location),
                  matrix=[round(v, 5) for row in o.matrix_basis for v in row])
         if o.type == "MESH" and o.data.materials:
             m = o.data.materials[0]
-            p = next(n for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
-            d["colour"] = tuple(round(v, 5) for v in p.inputs["Base Color"].default_value)
+            p = next((n for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
+            if p is not None:
+                d["colour"] = tuple(round(v, 5) for v in p.inputs["Base Color"].default_value)
+                if artist:
+                    d["material"] = {k: round(p.inputs[k].default_value, 5) for k in SHADING}
+                    d["material"]["textures"] = sorted(n.bl_idname for n in m.node_tree.nodes
+                                                       if n.bl_idname.startswith("ShaderNodeTex"))
         if o.type == "LIGHT":
             li = o.data
             d.update(light=li.type, energy=round(li.energy, 4), colour=tuple(round(v, 5) for v in li.color),
@@ -286,6 +311,8 @@ def describe_scene(scene) -> dict:
                 d.update(shape=li.shape, size=round(li.size, 5), size_y=round(li.size_y, 5))
             if li.type == "SPOT":
                 d.update(spot_size=round(li.spot_size, 5), spot_blend=round(li.spot_blend, 5))
+            if li.type == "SUN":
+                d.update(angle=round(li.angle, 5))
         if o.type == "CAMERA":
             d["lens"] = round(o.data.lens, 5)
         out[o.name] = d
