@@ -22,6 +22,7 @@ ap.add_argument("--size", type=parse_size, default=(240, 135))
 ap.add_argument("--spp", type=int, default=32)
 ap.add_argument("--cols", type=int, default=4)
 ap.add_argument("--sheet", default=None, help="contact sheet PNG")
+ap.add_argument("--mode", default="artist", choices=room.MODES)
 a = ap.parse_args()
 
 
@@ -34,21 +35,22 @@ scene = _bootstrap.empty_scene()
 frames, rows = [], []
 for s in a.seeds:
     t0 = time.perf_counter()
-    room.build_room(s, scene, mode="artist")
+    room.build_room(s, scene, mode=a.mode)
     t_build = time.perf_counter() - t0
-    prm = room.room_params(s, "artist")
+    prm = room.room_params(s, a.mode)
     passes.set_resolution(scene, *a.size)
     t = time.perf_counter()
     img = passes.render_cycles(scene, a.spp, denoise=True)["ref"]
     dt = time.perf_counter() - t
     mean = float(img.mean())
-    row = dict(seed=s, kind=prm["kind"], lighting=prm["lighting"], world=prm["world"]["type"],
-               lights=len(prm["lights"]) + (prm["sun"] is not None), emitters=len(prm["emitters"]),
+    row = dict(seed=s, kind=prm.get("kind", "open" if prm.get("open_side") else "closed"),
+               lighting=prm.get("lighting", "lamps"), world=prm["world"].get("type", "flat"),
+               lights=len(prm["lights"]) + (prm.get("sun") is not None), emitters=len(prm.get("emitters", ())),
                mean=round(mean, 4), clipped=round(float((img.max(axis=-1) > 1.0).mean()), 3),
                seconds=round(dt, 2), build_s=round(t_build, 2))
     rows.append(row)
     print(json.dumps(row), flush=True)
-    frames.append((img, f"{s} {prm['kind']} {prm['lighting']} {mean:.3f}"))
+    frames.append((img, f"{s} {row['kind']} {row['lighting']} {mean:.3f}"))
 
 if a.sheet:
     from PIL import Image, ImageDraw

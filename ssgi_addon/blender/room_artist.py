@@ -32,7 +32,7 @@ SKIES = ("SINGLE_SCATTERING", "MULTIPLE_SCATTERING", "HOSEK_WILKIE")
 # equirectangular camera, docs/artist_rooms.md): a sky's strength is irradiance / (pi * this)
 SKY_RADIANCE = {"SINGLE_SCATTERING": 3.1, "MULTIPLE_SCATTERING": 5.0, "HOSEK_WILKIE": 0.11}
 METALS = ((0.95, 0.93, 0.88), (1.0, 0.78, 0.34), (0.95, 0.64, 0.54), (0.56, 0.57, 0.58), (0.91, 0.92, 0.92))
-EMISSION_GAIN = 2.0  # emitter power / lamp power for alike light (docs/artist_rooms.md)
+EMISSION_GAIN = 1.0  # emitter power / lamp power for alike light (docs/artist_rooms.md)
 CAMERA_CLEARANCE = 0.35
 MIN_WALL_GAP = 0.6
 PLAZA = 8.0  # exteriors: buildings stand beyond this radius (m) from the origin; camera within 7 m
@@ -245,16 +245,18 @@ def artist_params(seed: int) -> dict:
     objects = _objects(rng, rng.randint(3, 9), rng.uniform(-0.15, 0.15) * W, rng.uniform(-0.15, 0.15) * D,
                        0.3 * W, 0.3 * D, H, 0.18, 0.6, P_TEX_OBJ)
     scale = (W * D + W * H + D * H) / 3.0  # as the diffuse rooms: ~ squared room size
-    power = scale * rng.uniform(3.0, 10.0)
+    power = scale * rng.uniform(2.0, 7.0)
     n_emit = 0 if lighting == "lamps" else rng.randint(1, 3)
     emitters, poles = _emitters(rng, W, D, H, n_emit)
     objects += poles
     glowing = [o for o in objects if o["material"]["kind"] == "emissive"]
-    if emitters or glowing:
-        share = power if lighting == "emission" else power * 0.5
+    for o in glowing:
+        o["area"] = _r(4 * math.pi * (o["radius"] / 1.5) ** 2)
+    if lighting == "lamps":  # glowing objects are accents there, the lamps light the room
         for o in glowing:
-            o["area"] = _r(4 * math.pi * (o["radius"] / 1.5) ** 2)
-        _set_emission(emitters + glowing, share * EMISSION_GAIN)
+            o["material"]["strength"] = _r(rng.uniform(1.0, 4.0))
+    else:
+        _set_emission(emitters + glowing, power * EMISSION_GAIN * (1.0 if lighting == "emission" else 0.5))
     lights = []
     if lighting != "emission":
         lights = _lamps(rng, W, D, H, objects + emitters, power if lighting == "lamps" else power * 0.5)
