@@ -58,11 +58,31 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
     Group("ao", ("Y",), "unit", "eevee", "use_pass_ambient_occlusion", "[0,1]",
           "EEVEE Ambient Occlusion pass (grey, one channel kept).", render_pass="Ambient Occlusion", preview="grey",
           drop_rank=2),
+    Group("emission", ("R", "G", "B"), "light", "eevee", "use_pass_emit", "linear radiance (HDR)",
+          "EEVEE Emission pass of the G-buffer render: the light emissive surfaces give off towards the camera. "
+          "EEVEE's direct light ignores emissive meshes (they light nothing without ray tracing), so this is the "
+          "only input that shows an emission-lit scene's light sources.", render_pass="Emission", drop_rank=1),
+    Group("direct_soft", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
+          "EEVEE Diffuse Direct light with the lights at their real size (soft shadows), of a render of its own "
+          "with the G-buffer's direct-only world and settings (ssgi_addon/blender/direct_light.py).",
+          render_pass="Diffuse Direct", drop_rank=0),
+    Group("rest", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
+          "What EEVEE renders well itself: EEVEE's Combined image of the scene at its own settings minus EEVEE's "
+          "diffuse part (Diffuse Color x Diffuse Light): emission, the world seen directly, glossy and metal "
+          "reflections, transmission (glass), volumes. Not a network input: the SSGI image of a model that "
+          "predicts the diffuse part (target ref_diffuse) is prediction + rest (model/infer/compose.py).",
+          render_pass=None),
     Group("eevee", ("R", "G", "B", "A"), "light", "eevee", None, "linear radiance (HDR)",
           "EEVEE's own direct-lit Combined image with the same hard lights; the 'local illumination' baseline.",
           render_pass="Combined"),
     Group("ref", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
-          "Cycles path-traced reference with the lights' real radius: the training target.", render_pass="Combined"),
+          "Cycles path-traced reference with the lights' real radius: the whole image; the training target of "
+          "models with target 'ref' (every model before issue 14).", render_pass="Combined"),
+    Group("ref_diffuse", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
+          "The diffuse part of the Cycles reference: Diffuse Color x (Diffuse Direct + Diffuse Indirect), denoised "
+          "with OIDN (albedo and normal guides) when the bake denoises. The target of models that predict only "
+          "what EEVEE cannot render (target 'ref_diffuse'): glossy, glass and emission stay out of it.",
+          render_pass=None),
 )}
 
 # Derived input groups: computed from stored groups, never stored or rendered themselves.
@@ -74,17 +94,35 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
               "over the geometry pixels, and the geometry fraction. Gives a small network the room's overall light "
               "level, which sets the indirect light everywhere (a per-image linear fit beat the global one by "
               "2.4 dB, docs/model.md). Computed on the full image, so crops and tiles see the same values."),
+    "glow": (("emission",), 4,
+             "Whole-image statistics of the emission pass broadcast to every pixel: mean log1p(emission) RGB over "
+             "all pixels and the share of emissive pixels (emission > 0.01). Tells the network how much light the "
+             "emitters on screen give off, wherever they are in the image."),
 }
 
-DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5}
+DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1}
+# derived groups that are whole-image statistics (normalised already), not light
+STAT_GROUPS: tuple[str, ...] = ("scene", "glow")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
-SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "eevee", "ref")
+SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
+                                  "rest", "eevee", "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
-OPTIONAL_GROUPS: tuple[str, ...] = ("world",)
-INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "lit", "scene")
-TARGET_GROUP = "ref"
+OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "rest", "ref_diffuse")
+INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
+                                 "lit", "scene", "glow")
+# What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
+# "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
+TARGETS: tuple[str, ...] = ("ref", "ref_diffuse")
+TARGET_GROUP = "ref"  # the image every method is scored against, and the target of a checkpoint that names none
+DIFFUSE_TARGET = "ref_diffuse"
+
+
+def check_target(target: str) -> str:
+    if target not in TARGETS:
+        raise UserError(f"unknown target {target!r}; known: {', '.join(TARGETS)}")
+    return target
 # The seed's 13 inputs.
 DEFAULT_INPUTS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "lit")
 
@@ -146,10 +184,11 @@ def required_passes(spec: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(dict.fromkeys(GROUPS[g].blender_pass for g in required_groups(spec) if GROUPS[g].blender_pass))
 
 
-def describe() -> list[dict]:
-    """The channel spec as plain data, for manifests and checkpoints."""
+def describe(groups=None) -> list[dict]:
+    """The channel spec as plain data, for manifests and checkpoints: every stored group, or those of
+    ``groups`` (what a dataset's samples hold), and the derived groups."""
     out = [dict(name=g.name, channels=list(g.channels), kind=g.kind, source=g.source, units=g.units, doc=g.doc)
-           for g in GROUPS.values()]
+           for g in GROUPS.values() if groups is None or g.name in groups]
     for name, (deps, size, doc) in DERIVED.items():
         out.append(dict(name=name, derived_from=list(deps), size=size, kind="light", doc=doc))
     return out

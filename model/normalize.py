@@ -47,7 +47,7 @@ def describe() -> dict:
 
 
 def _kind(name: str) -> str:
-    if name == "scene":
+    if name in ch.STAT_GROUPS:
         return "stat"  # already normalised statistics
     return ch.GROUPS[name].kind if name in ch.GROUPS else "light"  # derived groups (lit) are light
 
@@ -120,6 +120,14 @@ def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
             stats[3:6] = np.sort(alb[geo], axis=0).sum(0, dtype=np.float64) / geo.sum()
             stats[6] = geo.mean()
         return np.broadcast_to(stats, alb.shape[:2] + (7,)).astype(np.float32)
+    if name == "glow":
+        em = groups["emission"]
+        stats = np.zeros(4, np.float32)
+        if em.size:
+            # sorted float64 sums, as for "scene": mirror-invariant bits
+            stats[0:3] = np.sort(np.log1p(em.reshape(-1, 3)), axis=0).sum(0, dtype=np.float64) / em.shape[0] / em.shape[1]
+            stats[3] = (em.max(axis=-1) > 0.01).mean()
+        return np.broadcast_to(stats, em.shape[:2] + (4,)).astype(np.float32)
     raise KeyError(name)
 
 
@@ -161,9 +169,10 @@ def light_inverse(y):
     return y.expm1()
 
 
-def target(groups: dict[str, np.ndarray]) -> np.ndarray:
-    """The training target: the reference as linear HDR RGB (HxWx3 float32); NOT repaired (callers check)."""
-    return np.asarray(groups[ch.TARGET_GROUP], dtype=np.float32)[..., :3]
+def target(groups: dict[str, np.ndarray], group: str = ch.TARGET_GROUP) -> np.ndarray:
+    """The training target ``group`` (``channels.TARGETS``) as linear HDR RGB (HxWx3 float32); NOT repaired
+    (callers check)."""
+    return np.asarray(groups[group], dtype=np.float32)[..., :3]
 
 
 def flip_x(x, spec: tuple[str, ...], axis: int = -1):

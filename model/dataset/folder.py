@@ -75,9 +75,11 @@ def shard_manifest_name(shard: tuple[int, int] | None) -> str:
     return MANIFEST if shard is None else f"manifest.shard-{shard[0]}-of-{shard[1]}.json"
 
 
-def new_manifest(settings: dict, blender_version: str) -> dict:
+def new_manifest(settings: dict, blender_version: str, groups=None) -> dict:
+    """A manifest with no samples yet; its channel spec lists ``groups`` (the groups every sample will hold;
+    None: all of channels.SAMPLE_GROUPS)."""
     return {"format_version": ch.FORMAT_VERSION, "blender_version": blender_version,
-            "channel_spec": ch.describe(), "settings": dict(settings), "samples": {}}
+            "channel_spec": ch.describe(groups), "settings": dict(settings), "samples": {}}
 
 
 def read_manifest(path) -> dict:
@@ -155,7 +157,7 @@ def _check_writable(folder: Path) -> None:
         raise UserError(f"--out {folder}: folder is not writable ({e.strerror})") from None
 
 
-def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> dict:
+def prepare_folder(folder, settings: dict, blender_version: str, shard=None, groups=None) -> dict:
     """Create or reopen a dataset folder for baking; returns its (shard) manifest. Refuses foreign folders."""
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -184,7 +186,7 @@ def prepare_folder(folder, settings: dict, blender_version: str, shard=None) -> 
         if foreign:
             raise UserError(f"--out {folder}: not empty and not an SSGI dataset (holds {', '.join(sorted(foreign)[:5])}); "
                             f"choose an empty or new folder")
-    return new_manifest(settings, blender_version)
+    return new_manifest(settings, blender_version, groups)
 
 
 def stored_groups(manifest: dict) -> tuple[str, ...]:

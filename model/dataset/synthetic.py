@@ -65,7 +65,8 @@ def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int 
             exrio.write_sample(folder.sample_path(root, key), sample(w, h, sd, seed * 1009 + s), half=half)
             samples[key] = dict(seed=sd, scene=f"synthetic-{seed}-{s}", camera=v, frame=1, timings={})
             k += 1
-    m = folder.new_manifest(dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), "synthetic")
+    m = folder.new_manifest(dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), "synthetic",
+                            groups=tuple(sample(2, 2, 0, 0)))
     m["samples"] = samples
     folder.write_manifest(root, m)
     return root

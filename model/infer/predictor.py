@@ -1,4 +1,5 @@
-"""The inference contract (bpy-free): stored groups in, linear HDR RGB out.
+"""The inference contract (bpy-free): stored groups in, linear HDR RGB out (the model's target: the whole image,
+or the diffuse part that infer/compose.py adds to EEVEE's own other components).
 
 ``load_predictor(path)`` -> ``Predictor``; ``Predictor.predict({group: HxWxC float32})`` -> HxWx3 float32 linear
 radiance, finite, >= 0, any size. Everything around the network happens here, in this order, and nowhere else:
@@ -90,6 +91,7 @@ class Predictor:
         self.spec: tuple[str, ...] = tuple(ckpt["inputs"])
         self.required: tuple[str, ...] = ch.required_groups(self.spec)
         self.arch = dict(ckpt["arch"])
+        self.target = network.target_of(self.arch)  # what it predicts: the whole image or the diffuse part
         self.kind = ckpt.get("kind", "network")
         self.num_threads = num_threads
         self.tile = tile

@@ -52,7 +52,7 @@ def run_baseline(data_dir, out, inputs=ch.DEFAULT_INPUTS, space="linear", seed=0
     train_sc, val_sc = data.split_scenes(ds.scenes, val_fraction, seed)
     tr, va = ds.subset(train_sc), ds.subset(val_sc)
     w, b = fit(tr, space)
-    net = network.build(network.arch_for("linear", spec, space=space))
+    net = network.build(network.arch_for("linear", spec, target=ds.target, space=space))
     with torch.no_grad():
         net.conv.weight.copy_(torch.from_numpy(w.T.astype(np.float32))[:, :, None, None])
         net.conv.bias.copy_(torch.from_numpy(b.astype(np.float32)))

@@ -35,6 +35,7 @@ class TrainConfig:
     threads: int | None = None
     seed: int = 0
     val_fraction: float = 0.2
+    target: str | None = None  # what to learn (channels.TARGETS); None: ref_diffuse when the dataset holds it, else ref
     command: str | None = None
 
     def check(self) -> None:
@@ -50,5 +51,7 @@ class TrainConfig:
             raise UserError(f"--lr must be a positive number (got {self.lr})")
         if not 0 < self.val_fraction < 1:
             raise UserError(f"validation fraction must be in (0, 1) (got {self.val_fraction})")
+        if self.target is not None:
+            ch.check_target(self.target)
         if self.variant == "linear":
             raise UserError("the linear variant is fitted in closed form: use `cli.py baseline`")

@@ -53,11 +53,17 @@ class Sample:
     mask: torch.Tensor | None = None  # H x W bool: geometry pixels (images.geometry_mask); None = all
 
 
-def _groups_for(spec) -> tuple[str, ...]:
+def _groups_for(spec, target: str = ch.TARGET_GROUP) -> tuple[str, ...]:
     """The stored groups a sample for ``spec`` is built from: the spec's, plus the normals and depth (the
     geometry mask; normals also mark the background for the depth normalisation, as the render path does) and
-    the reference."""
-    return tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", ch.TARGET_GROUP)))
+    the ``target`` reference."""
+    return tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", target)))
+
+
+def default_target(manifest: dict) -> str:
+    """What a model trained on this dataset learns unless told: the diffuse part (``ref_diffuse``) when the
+    samples hold it, else the whole image (``ref``, every dataset baked before issue 14)."""
+    return ch.DIFFUSE_TARGET if ch.DIFFUSE_TARGET in folder.stored_groups(manifest) else ch.TARGET_GROUP
 
 
 def _check_stored(root: Path, manifest: dict, groups, spec) -> None:
@@ -68,7 +74,7 @@ def _check_stored(root: Path, manifest: dict, groups, spec) -> None:
                         f"with this version, or leave those inputs out (--inputs)")
 
 
-def read_samples(root, manifest: dict, groups, keys=None, progress=None, skipped=None):
+def read_samples(root, manifest: dict, groups, keys=None, progress=None, skipped=None, target: str = ch.TARGET_GROUP):
     """The one reader of sample files: yields (key, scene, {group: HxWxC}) for the samples of ``keys`` (default:
     all; a key the manifest does not list is a UserError) in key order. A sample whose reference has a
     non-finite pixel is not yielded; its key and why go into ``skipped``."""
@@ -87,7 +93,7 @@ def read_samples(root, manifest: dict, groups, keys=None, progress=None, skipped
         if not path.is_file():
             raise UserError(f"{path}: listed in the manifest but missing (re-run `cli.py bake` to complete it)")
         g = exrio.read_sample(path, groups)
-        y = normalize.target(g)
+        y = normalize.target(g, target)
         if not np.isfinite(y).all():
             if skipped is not None:
                 skipped[key] = f"{int((~np.isfinite(y)).any(axis=-1).sum())} non-finite reference pixel(s)"
@@ -95,10 +101,11 @@ def read_samples(root, manifest: dict, groups, keys=None, progress=None, skipped
         yield key, str(meta["scene"]), g
 
 
-def make_sample(key: str, scene: str, g: dict, spec) -> Sample:
-    """One training sample from a sample's stored groups, built the way the Predictor builds its input."""
+def make_sample(key: str, scene: str, g: dict, spec, target: str = ch.TARGET_GROUP) -> Sample:
+    """One training sample from a sample's stored groups, built the way the Predictor builds its input; its
+    ``y`` is the ``target`` group."""
     x, rep = normalize.to_inputs(g, spec)
-    y = np.ascontiguousarray(normalize.target(g))
+    y = np.ascontiguousarray(normalize.target(g, target))
     mask = images.geometry_mask(g["depth"], g["normal"])
     return Sample(key, scene, torch.from_numpy(x).permute(2, 0, 1).contiguous(),
                   torch.from_numpy(y).permute(2, 0, 1).contiguous(), rep, torch.from_numpy(mask))
@@ -112,19 +119,21 @@ class DatasetFolder(torch.utils.data.Dataset):
     samples: list[Sample] = field(default_factory=list)
     skipped: dict[str, str] = field(default_factory=dict)
     manifest: dict = field(default_factory=dict)
+    target: str = ch.TARGET_GROUP  # the group the samples' y holds (channels.TARGETS)
 
     @classmethod
-    def load(cls, root, spec=ch.DEFAULT_INPUTS, keys=None, progress=None) -> "DatasetFolder":
+    def load(cls, root, spec=ch.DEFAULT_INPUTS, keys=None, progress=None, target: str | None = None) -> "DatasetFolder":
         """Read the samples of ``keys`` (default: all) and build them for ``spec``, one at a time (the stored
-        groups are not kept)."""
+        groups are not kept). ``target``: the group to learn (None: ``default_target`` of the dataset)."""
         root = Path(root)
         spec = ch.parse_spec(spec)
         m = folder.open_folder(root, scenes=True)
-        groups = _groups_for(spec)
+        target = ch.check_target(target or default_target(m))
+        groups = _groups_for(spec, target)
         _check_stored(root, m, groups, spec)
-        ds = cls(root=root, spec=spec, manifest=m)
-        for key, scene, g in read_samples(root, m, groups, keys, progress, ds.skipped):
-            ds.samples.append(make_sample(key, scene, g, spec))
+        ds = cls(root=root, spec=spec, manifest=m, target=target)
+        for key, scene, g in read_samples(root, m, groups, keys, progress, ds.skipped, target):
+            ds.samples.append(make_sample(key, scene, g, spec, target))
         if not ds.samples:
             raise UserError(f"{root}: no usable sample (skipped: {ds.skipped})")
         return ds
@@ -166,7 +175,8 @@ class StoredSamples:
         self.root = Path(root)
         self.manifest = folder.open_folder(self.root, scenes=True)
         stored = folder.stored_groups(self.manifest)
-        groups = tuple(g for g in _groups_for(ch.INPUT_GROUPS) if g in stored)
+        groups = tuple(g for g in _groups_for(ch.INPUT_GROUPS) + ch.TARGETS if g in stored)
+        self.target = default_target(self.manifest)
         self.skipped: dict[str, str] = {}
         self.raw = {k: g for k, _scene, g in read_samples(self.root, self.manifest, groups, keys, skipped=self.skipped)}
         self.scene = {k: str(self.manifest["samples"][k]["scene"]) for k in self.raw}
@@ -186,12 +196,14 @@ class StoredSamples:
         """The usable ones of ``keys`` (not skipped), sorted."""
         return [k for k in sorted(set(map(str, keys))) if k in self.raw]
 
-    def samples(self, spec, keys) -> list[Sample]:
+    def samples(self, spec, keys, target: str | None = None) -> list[Sample]:
         spec = ch.parse_spec(spec)
-        _check_stored(self.root, self.manifest, _groups_for(spec), spec)
-        return [make_sample(k, self.scene[k], self.raw[k], spec) for k in self.keys(keys)]
+        target = ch.check_target(target or self.target)
+        _check_stored(self.root, self.manifest, _groups_for(spec, target), spec)
+        return [make_sample(k, self.scene[k], self.raw[k], spec, target) for k in self.keys(keys)]
 
-    def dataset(self, spec, keys) -> DatasetFolder:
+    def dataset(self, spec, keys, target: str | None = None) -> DatasetFolder:
         spec = ch.parse_spec(spec)
+        target = ch.check_target(target or self.target)
         return DatasetFolder(root=self.root, spec=spec, manifest=self.manifest, skipped=dict(self.skipped),
-                             samples=self.samples(spec, keys))
+                             samples=self.samples(spec, keys, target), target=target)

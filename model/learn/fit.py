@@ -80,8 +80,9 @@ class FitConfig:
     target_psnr: float | None = None
     init: str | None = None
     ladder: list = field(default_factory=lambda: [list(x) for x in LADDER])
-    # the inputs scratch candidates start from: every stored pass ("scene" is derived; the shipped model has it)
-    inputs: str = ch.format_spec(tuple(g for g in ch.INPUT_GROUPS if g != "scene"))
+    # the inputs scratch candidates start from (None: every input group except "scene" that the views' samples
+    # hold; "scene" is derived and the shipped model has it)
+    inputs: str | None = None
     drop_tol: float = 0.1
     batch: int = 16
     crop: int = 64
@@ -106,7 +107,8 @@ class FitConfig:
         sets = [set(map(str, k)) for k in (self.train_keys, self.val_keys, self.test_keys)]
         if sets[0] & sets[1] or sets[0] & sets[2] or sets[1] & sets[2]:
             raise UserError("train, validation and test views must be disjoint")
-        ch.parse_spec(self.inputs)
+        if self.inputs is not None:
+            ch.parse_spec(self.inputs)
         for row in self.ladder:
             if len(row) != 3 or not isinstance(row[2], dict):
                 raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")
@@ -253,7 +255,12 @@ class Fitter:
 
         # ---- size search
         self.phase = "size"
-        spec0 = ch.parse_spec(cfg.inputs)
+        if cfg.inputs is not None:
+            spec0 = ch.parse_spec(cfg.inputs)
+        else:
+            stored = folder.stored_groups(self.views.manifest)
+            spec0 = tuple(g for g in ch.INPUT_GROUPS
+                          if g != "scene" and all(r in stored for r in ch.required_groups((g,))))
         cands = []
         for name, variant, over in cfg.ladder:
             arch = network.arch_for(variant, spec0, **over)

@@ -177,8 +177,15 @@ BACKBONES = {"fssgi": (FSSGI, ("width", "pre", "post", "head")),
              "linear": (PixelLinear, ("space",))}
 
 
-def arch_for(variant: str, inputs=ch.DEFAULT_INPUTS, **overrides) -> dict:
-    """The complete architecture dict of ``variant`` with ``overrides`` (e.g. width=32)."""
+def target_of(arch: dict) -> str:
+    """What a network predicts (``channels.TARGETS``): its architecture's "target"; "ref" (the whole image)
+    for networks made before issue 14, which name none."""
+    return ch.check_target(arch.get("target", ch.TARGET_GROUP))
+
+
+def arch_for(variant: str, inputs=ch.DEFAULT_INPUTS, target: str = ch.TARGET_GROUP, **overrides) -> dict:
+    """The complete architecture dict of ``variant`` with ``overrides`` (e.g. width=32), predicting
+    ``target``."""
     if variant not in VARIANTS:
         raise UserError(f"unknown variant {variant!r}; known: {', '.join(VARIANTS)}")
     a = dict(VARIANTS[variant])
@@ -188,7 +195,8 @@ def arch_for(variant: str, inputs=ch.DEFAULT_INPUTS, **overrides) -> dict:
         if k not in BACKBONES[a["backbone"]][1]:
             raise UserError(f"variant {variant!r} has no setting {k!r}; it has {', '.join(BACKBONES[a['backbone']][1])}")
         a[k] = v
-    return dict(arch_version=ARCH_VERSION, variant=variant, inputs=list(ch.parse_spec(inputs)), **a)
+    return dict(arch_version=ARCH_VERSION, variant=variant, inputs=list(ch.parse_spec(inputs)),
+                target=ch.check_target(target), **a)
 
 
 def build(arch: dict) -> nn.Module:

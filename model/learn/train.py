@@ -99,6 +99,7 @@ class Trainer:
                 for k in ("variant", "inputs", "arch", "optimizer", "batch", "crop", "crops_per_image", "seed",
                           "val_fraction"):
                     setattr(cfg, k, stored[k])
+                cfg.target = stored.get("target") or ch.TARGET_GROUP  # a run before targets learned the image
                 for k in ("lr", "clip", "early_stop"):  # given again: the new value wins (e.g. a lower lr)
                     if getattr(cfg, k) is None:
                         setattr(cfg, k, stored[k])
@@ -115,8 +116,11 @@ class Trainer:
         spec = ch.parse_spec(cfg.inputs)
         if self.dataset is None:
             self.log(f"loading {cfg.data} ...")
-            self.dataset = data.DatasetFolder.load(cfg.data, spec)
+            self.dataset = data.DatasetFolder.load(cfg.data, spec, target=cfg.target)
         ds = self.dataset
+        if cfg.target is not None and cfg.target != ds.target:
+            raise UserError(f"the dataset was loaded for target {ds.target}, training wants {cfg.target}")
+        cfg.target = ds.target
         if tuple(ds.spec) != spec:
             raise UserError(f"dataset was loaded for inputs {ch.format_spec(ds.spec)}, training wants {ch.format_spec(spec)}")
         for k, why in ds.skipped.items():
@@ -139,7 +143,7 @@ class Trainer:
             split = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set], by="view")
         self.identity = dict(ident, split=split)
         torch.manual_seed(cfg.seed)
-        self.net = network.build(network.arch_for(cfg.variant, spec, **cfg.arch))
+        self.net = network.build(network.arch_for(cfg.variant, spec, target=cfg.target, **cfg.arch))
         self.net.train()
         self.net.to(memory_format=torch.channels_last)  # measured 1.2-1.6x faster steps on this CPU
         lr = cfg.lr if cfg.lr is not None else (1e-3 if cfg.optimizer == "adam" else 1e-2)

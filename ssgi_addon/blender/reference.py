@@ -52,28 +52,36 @@ def resolve_ref_target(ref_target_db, denoise: bool) -> float | None:
 
 
 def render_reference(scene, max_samples: int, target_db: float | None, seed: int = 0, denoise: bool = False):
-    """The Cycles reference of ``scene``: (HxWx3, info). With a target, two halves of different seeds are rendered
-    and doubled (128+128 spp, then 256+256, ...) until psnr(half A, half B) + 3.01 dB >= ``target_db`` or
-    ``max_samples`` is spent; the reference is the mean of both halves (each half the spp-weighted mean of its
+    """The Cycles reference image of ``scene``: (HxWx3, info); ``render_references`` with the group "ref"."""
+    imgs, info = render_references(scene, max_samples, target_db, seed=seed, denoise=denoise)
+    return imgs["ref"], info
+
+
+def render_references(scene, max_samples: int, target_db: float | None, seed: int = 0, denoise: bool = False,
+                      groups=("ref",)):
+    """The Cycles reference groups of ``scene`` ("ref", and "ref_diffuse", the diffuse part, from the same
+    renders): ({group: HxWx3}, info). With a target, two halves of different seeds are rendered and doubled
+    (128+128 spp, then 256+256, ...) until psnr(half A, half B) + 3.01 dB of the "ref" image >= ``target_db``
+    or ``max_samples`` is spent; each group is the mean of both halves (each half the spp-weighted mean of its
     renders: unbiased, as one render of as many samples). ``info``: samples, estimated agreement in dB (None
     for a fixed count) and the number of Cycles renders."""
+    groups = tuple(dict.fromkeys(("ref",) + tuple(groups)))
     if target_db is None or max_samples < 2:
-        img = passes.render_cycles(scene, max_samples, seed=seed, denoise=denoise, groups=("ref",))["ref"]
-        return img, {"samples": int(max_samples), "agreement_db": None, "renders": 1}
-    sums, n, renders = [None, None], 0, 0  # per half: sum of spp * image; spp per half so far
+        imgs = passes.render_cycles(scene, max_samples, seed=seed, denoise=denoise, groups=groups)
+        return imgs, {"samples": int(max_samples), "agreement_db": None, "renders": 1}
+    sums, n, renders = [None, None], 0, 0  # per half: {group: sum of spp * image}; spp per half so far
     add = max(1, min(REF_START_SAMPLES, max_samples) // 2)
     while True:
         for h in (0, 1):
             cycles_seed = (int(seed) * REF_SEED_STRIDE + renders) % 2 ** 31
-            img = passes.render_cycles(scene, add, seed=cycles_seed, groups=("ref",))["ref"]
-            img = img.astype(np.float64) * add
-            sums[h] = img if sums[h] is None else sums[h] + img
+            imgs = passes.render_cycles(scene, add, seed=cycles_seed, groups=groups)
+            imgs = {g: v.astype(np.float64) * add for g, v in imgs.items()}
+            sums[h] = imgs if sums[h] is None else {g: sums[h][g] + imgs[g] for g in groups}
             renders += 1
         n += add
-        a, b = sums[0] / n, sums[1] / n
-        est = metrics.psnr(a, b) + HALVES_GAIN_DB
+        est = metrics.psnr(sums[0]["ref"] / n, sums[1]["ref"] / n) + HALVES_GAIN_DB
         add = min(n, max_samples // 2 - n)  # double each half, never past max_samples
         if est >= target_db or add <= 0 or renders + 2 >= REF_SEED_STRIDE:
             break
-    ref = ((a + b) / 2).astype(np.float32)
-    return ref, {"samples": 2 * n, "agreement_db": round(float(min(est, 999.0)), 2), "renders": renders}
+    out = {g: ((sums[0][g] + sums[1][g]) / (2 * n)).astype(np.float32) for g in groups}
+    return out, {"samples": 2 * n, "agreement_db": round(float(min(est, 999.0)), 2), "renders": renders}

@@ -1,7 +1,7 @@
 """`cli.py bake`, `verify`, `merge`, `preview`: the bake stage (ssgi_addon/pipeline/bake.py) and the dataset
 folder's tools (model/dataset/) behind argparse.
 
-    cli.py bake --out DIR [--count 10] [--seed 0] [--size 240x135] [--ref-samples N] [--denoise] [--shard i/n]
+    cli.py bake --out DIR [--count 10] [--seed 0] [--mode diffuse|artist] [--size 240x135] [--ref-samples N] [--denoise] [--shard i/n]
     cli.py bake --out DIR --scenes a.blend b.blend [--frames 1-48]
     cli.py verify DIR | cli.py merge DIR | cli.py preview DIR --out SHEET.png
 """
@@ -23,7 +23,8 @@ def run_bake(args) -> dict:
 
     cfg = BakeConfig(out=args.out, count=args.count, seed=args.seed, size=tuple(args.size),
                      ref_samples=args.ref_samples, ref_target_db=args.ref_target_db, denoise=args.denoise,
-                     eevee_samples=args.eevee_samples, shard=args.shard, scenes=args.scenes, frames=args.frames)
+                     eevee_samples=args.eevee_samples, shard=args.shard, scenes=args.scenes, frames=args.frames,
+                     mode=args.mode)
     bar = None
 
     def on_start(ev):  # the bar shows from the start, not after the first (minutes-long) sample
@@ -86,6 +87,10 @@ def register_cli(sub) -> None:
                    help="number of random rooms (default %(default)s)")
     p.add_argument("--seed", type=int, default=D.seed,
                    help="seed of the first room; room i uses seed+i (default %(default)s)")
+    p.add_argument("--mode", choices=("diffuse", "artist"), default=D.mode,
+                   help="random rooms: 'diffuse' (diffuse primitives and lamps, the seed's) or 'artist' (Principled, "
+                        "metal, glass, textures, emitters, sky and sun, exteriors; docs/artist_rooms.md) "
+                        "(default %(default)s)")
     p.add_argument("--size", type=cliargs.parse_size, default=cliargs.Size(*D.size), metavar="WxH",
                    help="image size (default %(default)s)")
     p.add_argument("--ref-samples", type=cliargs.positive_int, default=D.ref_samples,

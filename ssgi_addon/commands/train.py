@@ -32,7 +32,7 @@ def run_train(args) -> dict:
                       arch=_arch_overrides(args.arch), minutes=args.minutes, epochs=args.epochs, resume=args.resume,
                       optimizer=args.optimizer, lr=args.lr, clip=args.clip, batch=args.batch, crop=args.crop,
                       crops_per_image=args.crops_per_image, early_stop=args.early_stop, threads=args.threads,
-                      seed=args.seed, val_fraction=args.val_fraction, command=command_line())
+                      seed=args.seed, val_fraction=args.val_fraction, target=args.target, command=command_line())
     bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet, bar_format="{l_bar}{bar}| {postfix}")
 
     def cb(d):
@@ -96,6 +96,10 @@ def register_cli(sub) -> None:
     p.add_argument("--arch", metavar="JSON", help='override variant settings, e.g. \'{"width": 32}\'')
     p.add_argument("--inputs", default=T.inputs, metavar="SPEC",
                    help="input groups, comma-separated (default: %(default)s)")
+    p.add_argument("--target", choices=("ref", "ref_diffuse"), default=None,
+                   help="what the network learns: ref_diffuse, the diffuse part of the Cycles image, which the render "
+                        "path adds to EEVEE's own emission, reflections and glass (default when the dataset holds it), "
+                        "or ref, the whole image (datasets baked before issue 14)")
     p.add_argument("--minutes", type=float,
                    help=f"time budget in minutes (default {DEFAULT_MINUTES:g} when --epochs is not given)")
     p.add_argument("--epochs", type=int, help="number of epochs")

@@ -20,32 +20,45 @@ from ...model.dataset import exrio
 from ...model import files
 from ...model.errors import UserError
 from ..blender import passes, room
-from ..blender.reference import DEFAULT_REF_SAMPLES, render_reference, resolve_ref_target
+from ..blender.reference import DEFAULT_REF_SAMPLES, render_references, resolve_ref_target
 
 DEFAULT_SIZE = (240, 135)
 DEFAULT_DENOISE = False
 DEFAULT_EEVEE_SAMPLES = 1
 EEVEE_SAMPLE_GROUPS = passes.EEVEE_GROUPS
+CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
+# what a new folder's samples hold: every group but the artist-settings render `rest`
+BAKE_GROUPS = passes.BAKE_EEVEE_GROUPS + CYCLES_SAMPLE_GROUPS
+ROOM_MODES = room.MODES
 
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
-              ref_target_db=None):
-    return ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
-                       ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames,
-                       eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
-                              "world_group": passes.WORLD_GROUP_MODE,
-                              "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0,
-                                              "area_size_m": passes.AREA_LIGHT_SIZE}})
+              ref_target_db=None, mode="diffuse"):
+    s = ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
+                    ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames,
+                    eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
+                           "world_group": passes.WORLD_GROUP_MODE,
+                           "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0,
+                                           "area_size_m": passes.AREA_LIGHT_SIZE},
+                           "direct_soft": {"mode": passes.SOFT_MODE, "samples": passes.SOFT_SAMPLES},
+                           "ref_diffuse": "cycles diffuse color x (diffuse direct + indirect), OIDN-denoised "
+                                          "(compositor Denoise node, albedo + normal) when the reference is"})
+    if mode != "diffuse":  # a diffuse-room folder's settings stay those of the bakes before the modes existed
+        s["room_mode"] = mode
+    return s
 
 
 def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0,
-                  keep_sky: bool = True, eevee_groups=EEVEE_SAMPLE_GROUPS,
+                  keep_sky: bool = True, eevee_groups=EEVEE_SAMPLE_GROUPS, cycles_groups=("ref",),
                   ref_target_db: float | None = None) -> tuple[dict, dict, dict]:
     """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds, reference info)."""
     t0 = time.perf_counter()
     groups = passes.render_gbuffer(scene, eevee_groups, samples=eevee_samples, keep_sky=keep_sky)
+    groups.pop("beauty", None)
     t1 = time.perf_counter()
-    groups["ref"], ref_info = render_reference(scene, ref_samples, ref_target_db, seed=ref_seed, denoise=denoise)
+    refs, ref_info = render_references(scene, ref_samples, ref_target_db, seed=ref_seed, denoise=denoise,
+                                       groups=cycles_groups)
+    groups.update(refs)
     t2 = time.perf_counter()
     return groups, {"eevee_s": round(t1 - t0, 4), "cycles_s": round(t2 - t1, 4)}, ref_info
 
@@ -79,7 +92,9 @@ def _scene_jobs(scenes, frames):
     return out
 
 
-def _check_args(w, h, count, ref_samples, shard, scenes):
+def _check_args(w, h, count, ref_samples, shard, scenes, mode="diffuse"):
+    if mode not in ROOM_MODES:
+        raise UserError(f"--mode {mode!r}: not a room mode; known: {', '.join(ROOM_MODES)}")
     if w <= 0 or h <= 0:
         raise UserError(f"--size {w}x{h}: width and height must be positive")
     if count is not None and count < 0:
@@ -105,7 +120,8 @@ def _complete(out, name, manifest) -> bool:
 
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
-              shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None):
+              shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
+              mode: str = "diffuse"):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -115,7 +131,7 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     ``{"event": "done", **summary}``. Random rooms are built into ``scene`` (None: a fresh empty file, as
     the command line does; the operator passes a scratch scene so that the user's file is left alone)."""
     w, h = int(size[0]), int(size[1])
-    _check_args(w, h, count, ref_samples, shard, scenes)
+    _check_args(w, h, count, ref_samples, shard, scenes, mode)
     target = resolve_ref_target(ref_target_db, denoise)
     if target is not None and ref_samples < 2:  # no halves to compare: refuse before any work (issue 13)
         raise UserError(f"--ref-samples {ref_samples}: the {target:g} dB reference target compares two halves, so it "
@@ -128,19 +144,21 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
                              frames=list(frames) if frames else None, ref_target_db=target)
     else:
         settings = _settings("rooms", (w, h), ref_samples, denoise, eevee_samples, first_seed=seed,
-                             ref_target_db=target)
+                             ref_target_db=target, mode=mode)
     # list the jobs first: an unreadable .blend or a scene without a camera stops before the folder is touched
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
-    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard)
+    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard, groups=BAKE_GROUPS)
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
     # a folder begun before the sky fix keeps its black sky in `eevee`, so that one dataset is one setting
     keep_sky = manifest["settings"].get("eevee", {}).get("world") != "black"
-    # ... and a folder begun before the `world` group existed goes on without it
+    # ... and a folder begun before a group existed (`world`; `emission`, `direct_soft`, `ref_diffuse`) goes on
+    # without it
     eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in EEVEE_SAMPLE_GROUPS)
+    cycles_groups = tuple(g for g in ds.stored_groups(manifest) if g in CYCLES_SAMPLE_GROUPS)
 
     def owned(final_name):
         m = ds.SAMPLE_RE.match(final_name)
@@ -169,13 +187,14 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
             scene.camera = scene.objects.get(info["camera"])
             scene.frame_set(info["frame"])
         else:
-            room.build_room(info["seed"], scene)
+            room.build_room(info["seed"], scene, mode=mode)
         passes.set_resolution(scene, w, h)
         kept = len(manifest["samples"])
         try:
             groups, timings, ref_info = render_sample(scene, ref_samples, denoise, eevee_samples,
                                                       ref_seed=info["seed"], keep_sky=keep_sky,
-                                                      eevee_groups=eevee_groups, ref_target_db=target)
+                                                      eevee_groups=eevee_groups, cycles_groups=cycles_groups,
+                                                      ref_target_db=target)
             exrio.write_sample(ds.sample_path(out, name), groups, half=settings["half"],
                                header={"ssgi_seed": info["seed"], "ssgi_scene": info["scene"]})
             manifest["samples"][name] = dict(info, timings=timings, reference=ref_info)
@@ -212,10 +231,12 @@ class BakeConfig:
     shard: tuple[int, int] | None = None  # (i, n): bake samples i, i+n, ... into a shard manifest
     scenes: list | None = None  # bake these .blend files' cameras instead of rooms
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
+    mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
-        _check_args(int(self.size[0]), int(self.size[1]), self.count, self.ref_samples, self.shard, self.scenes)
+        _check_args(int(self.size[0]), int(self.size[1]), self.count, self.ref_samples, self.shard, self.scenes,
+                    self.mode)
         resolve_ref_target(self.ref_target_db, self.denoise)
 
 
@@ -226,7 +247,7 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     cfg.check()
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
-                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db)
+                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode)
     start = next(gen)
     if on_start:
         on_start(start)

@@ -66,12 +66,11 @@ def world_mask(groups: dict, clip_end: float) -> np.ndarray:
     return m
 
 
-def compose(pred: np.ndarray, groups: dict, clip_end: float) -> np.ndarray:
-    """The image the node shows: the prediction, with EEVEE's Combined colour where there is no geometry."""
-    out = np.array(pred[..., :3], dtype=np.float32, copy=True)
-    m = world_mask(groups, clip_end)
-    out[m] = groups["eevee"][..., :3][m]
-    return out
+def compose(pred: np.ndarray, groups: dict, clip_end: float, target: str = ch.TARGET_GROUP) -> np.ndarray:
+    """The image the node shows (model/infer/compose.py): a diffuse-part model's prediction plus EEVEE's own other
+    components, or a whole-image model's prediction with EEVEE's Combined colour where there is no geometry."""
+    from ...model.infer.compose import compose as compose_
+    return compose_(pred, groups, target, world_mask(groups, clip_end) if target == ch.TARGET_GROUP else None)
 
 
 # --- output paths --------------------------------------------------------------------------------------
@@ -141,8 +140,13 @@ class RenderSession:
                 f"model {self.model_path} (inputs {ch.format_spec(self.spec)}) needs pass(es) "
                 f"{', '.join(pass_label(f) for f in miss)}, which view layer {scene.view_layers[0].name!r} of scene "
                 f"{scene.name!r} does not render: run 'Set up SSGI' or enable them in View Layer > Passes")
-        # normal too: it marks the pixels where nothing was hit for the depth normalisation, as in training
-        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal", "eevee")))
+        # normal too: it marks the pixels where nothing was hit for the depth normalisation, as in training;
+        # and what the composition reads: EEVEE's own other components (rest, rendered last at the artist's own
+        # settings) for a diffuse-part model, EEVEE's Combined for a whole-image model
+        from ...model.infer.compose import needs
+        self.target = self.predictor.target
+        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal", "eevee")
+                                          + needs(self.target)))
         self.out = out
         self.write = write
         self.samples = int(samples) if samples else int(scene.eevee.taa_render_samples)
@@ -161,7 +165,7 @@ class RenderSession:
         try:
             with preserved(scene):
                 t0 = time.perf_counter()
-                groups = passes.render_gbuffer(scene, self.groups, samples=self.samples)
+                groups = passes.render_gbuffer(scene, self.groups, samples=self.samples, rest_samples=self.samples)
                 missing = [g for g in self.groups if g not in groups]
                 if missing:
                     raise UserError(f"the pass render returned no {', '.join(missing)} for scene {scene.name!r}")
@@ -174,7 +178,7 @@ class RenderSession:
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
             pred = self.predictor.predict({g: groups[g] for g in ch.required_groups(self.spec) + ("normal",)})
-            rgb = compose(pred, groups, scene.camera.data.clip_end)
+            rgb = compose(pred, groups, scene.camera.data.clip_end, self.target)
             info["t_predict"] = time.perf_counter() - t0
             info["rss_mb_predict"] = peak_rss_mb()
             info["repaired_pixels"] = self.predictor.last_repaired  # non-finite inputs (normalize.repair)

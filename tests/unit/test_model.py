@@ -339,7 +339,8 @@ def test_datasets_from_before_the_world_group_still_read_verify_and_feed_trainin
     assert dataset.verify(new) == []
     old = synthetic.make_dataset(tmp_path / "old", scenes=2, per_scene=1, w=16, h=8)
     _strip_world(old)
-    assert dataset.stored_groups(dataset.open_folder(old)) == tuple(g for g in ch.SAMPLE_GROUPS if g != "world")
+    assert dataset.stored_groups(dataset.open_folder(old)) == tuple(g for g in ch.SAMPLE_GROUPS
+                                                                    if g not in ch.OPTIONAL_GROUPS)
     assert dataset.verify(old) == []
     assert "world" not in exrio.read_sample(old / "000000.exr") and "world" in exrio.read_sample(new / "000000.exr")
     # the inputs without `world` load from the old dataset; asking for `world` names the file and channel
@@ -542,7 +543,7 @@ def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_abl
     assert "curvature" in preview.columns(m) and preview.columns(m)[-1] == "ref"
     assert preview._tile("curvature", np.full((2, 2, 1), 0.5, np.float32)).shape == (2, 2, 3)
     assert bench.synthetic_groups(4, 3)["curvature"].shape == (3, 4, 1)
-    assert ch.drop_order()[:3] == ("world", "curvature", "scene")
+    assert ch.drop_order()[:3] == ("direct_soft", "world", "curvature")
     spec = ch.parse_spec("albedo,direct,curvature")
     assert ablation.droppable(spec, "residual") == ["curvature"]
     assert {g.name: g.render_pass for g in ch.GROUPS.values()}["curvature"] == "Curvature"
