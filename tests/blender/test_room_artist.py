@@ -262,3 +262,24 @@ def test_tiny_eevee_render_of_an_emission_only_room(tmp_path):
     bright = img.max(axis=-1) > 0.9
     assert 0.005 < bright.mean() < 0.5  # the emitter is in view, saturated
     assert np.median(img) < 0.05  # the rest: unlit in EEVEE (what the network must add, issue 14 item 2)
+
+
+def test_randomize_room_operator_and_panel_take_the_mode():
+    code = """
+    import json, bpy
+    import ssgi
+    from ssgi.panels import bake_panel
+    from tests import ui_recorder
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    ssgi.register()
+    rec = ui_recorder.draw(bake_panel.SSGI_PT_bake)  # checks that the operator has the properties set
+    assert bpy.ops.ssgi.randomize_room(seed=4, mode="artist") == {"FINISHED"}
+    rs = bpy.data.scenes["SSGI Room 4"]
+    out = [rs.get("ssgi_room_mode"), rs.ssgi.room_mode, "room_mode" in rec.props()]
+    with bpy.context.temp_override(scene=rs):
+        assert bpy.ops.ssgi.randomize_room(seed=4, mode="diffuse") == {"FINISHED"}
+    out += [rs.get("ssgi_room_mode"), rs.ssgi.room_mode]
+    print("JSON" + json.dumps(out))
+    """
+    out = json.loads(run_py(code).stdout.split("JSON", 1)[1])
+    assert out == ["artist", "artist", True, None, "diffuse"]
