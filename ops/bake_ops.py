@@ -10,37 +10,41 @@ from __future__ import annotations
 
 import bpy
 
+from ..ssgi_addon import props
 from ..ssgi_addon.blender import room
 from ..ssgi_addon.runtime import jobs, ui_jobs
 from . import JobSteps
 
 
 class SSGI_OT_randomize_room(bpy.types.Operator):
-    """Build a random room (box, diffuse primitives, lights, camera) from a seed. In a room scene this rebuilds
+    """Build a random room (box, primitives, lights, camera) from a seed, diffuse or artist-style. In a room scene this rebuilds
     it; elsewhere it makes a new scene, so your scenes are left alone"""
     bl_idname = "ssgi.randomize_room"
     bl_label = "Randomize Room"
     bl_options = {"REGISTER", "UNDO"}
 
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0, description="Room seed (same seed, same room)")
+    mode: bpy.props.EnumProperty(name="Kind", default="diffuse", items=props.ROOM_MODES)
 
     def invoke(self, context, event):
         s = getattr(context.scene, "ssgi", None)
         if s is not None:
             self.seed = s.room_seed
+            self.mode = s.room_mode
         return self.execute(context)
 
     def execute(self, context):
         scene = context.scene
         if scene is None or "ssgi_room_seed" not in scene:
             scene = None  # a new scene: never fill the user's own scene with a room
-        scene = room.build_room(self.seed, scene)
+        scene = room.build_room(self.seed, scene, self.mode)
         scene.name = f"SSGI Room {self.seed}"
         if context.window is not None:
             context.window.scene = scene
         if getattr(scene, "ssgi", None) is not None:
             scene.ssgi.room_seed = self.seed
-        self.report({"INFO"}, f"Room {self.seed}: {len(scene.objects)} objects in scene {scene.name!r}")
+            scene.ssgi.room_mode = self.mode
+        self.report({"INFO"}, f"Room {self.seed} ({self.mode}): {len(scene.objects)} objects in scene {scene.name!r}")
         return {"FINISHED"}
 
 

@@ -22,7 +22,9 @@ class SSGI_PT_bake(JobPanel, bpy.types.Panel):
     def draw_settings(self, col, s):
         row = col.row(align=True)
         row.prop(s, "room_seed")
-        row.operator("ssgi.randomize_room", icon="FILE_REFRESH").seed = s.room_seed
+        row.prop(s, "room_mode", text="")
+        op = row.operator("ssgi.randomize_room", icon="FILE_REFRESH")
+        op.seed, op.mode = s.room_seed, s.room_mode
         col.prop(s, "dataset_dir")
         row = col.row(align=True)
         row.prop(s, "bake_count")

@@ -14,6 +14,11 @@ from .pipeline.randomize import RandomizeConfig as _Randomize
 from .pipeline.report import ReportConfig as _Report
 
 
+ROOM_MODES = [("diffuse", "Diffuse", "A box of diffuse primitives lit by lamps (the seed's rooms)"),
+              ("artist", "Artist", "Principled, metal, glass and textured materials, emissive lights, skies, "
+                                   "open rooms and exteriors (docs/artist_rooms.md)")]
+
+
 class SSGI_SceneSettings(bpy.types.PropertyGroup):
     dataset_dir: bpy.props.StringProperty(name="Dataset", subtype="DIR_PATH", default="//ssgi_dataset/",
                                           description="Folder of the baked dataset (EXR samples + manifest.json)")
@@ -46,6 +51,8 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                              description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
     # Dataset panel (ops/bake_ops.py): Randomize Room and Bake Dataset (defaults as cli.py randomize / bake)
     room_seed: bpy.props.IntProperty(name="Room Seed", default=_Randomize.seed, min=0, description="Seed of the random room")
+    room_mode: bpy.props.EnumProperty(name="Room Kind", default=_Randomize.mode, items=ROOM_MODES,
+                                      description="What Randomize Room builds")
     bake_count: bpy.props.IntProperty(name="Rooms", default=_Bake.count, min=0, soft_max=2000,
                                       description="Number of random rooms to bake (room i uses seed + i)")
     bake_seed: bpy.props.IntProperty(name="First Seed", default=_Bake.seed, min=0, description="Seed of the first room")

@@ -161,9 +161,10 @@ def _emitters(rng, W, D, H, n):
             a, b = rng.uniform(0.35, 0.9), rng.uniform(0.22, 0.5)
             z = rng.uniform(0.8, min(1.8, H - b - 0.1))
             t = rng.uniform(-0.3, 0.3)
-            loc, rot = {"wall_xn": ((-W / 2 + 0.03, t * D, z), (0.0, math.pi / 2, math.pi / 2)),
-                        "wall_xp": ((W / 2 - 0.03, t * D, z), (0.0, -math.pi / 2, -math.pi / 2)),
-                        "wall_yn": ((t * W, -D / 2 + 0.03, z), (-math.pi / 2, 0.0, 0.0)),
+            # parallel to the wall (local x along it, y up), its normal into the room
+            loc, rot = {"wall_xn": ((-W / 2 + 0.03, t * D, z), (math.pi / 2, 0.0, math.pi / 2)),
+                        "wall_xp": ((W / 2 - 0.03, t * D, z), (math.pi / 2, 0.0, -math.pi / 2)),
+                        "wall_yn": ((t * W, -D / 2 + 0.03, z), (math.pi / 2, 0.0, math.pi)),
                         "wall_yp": ((t * W, D / 2 - 0.03, z), (math.pi / 2, 0.0, 0.0))}[side]
             d = dict(shape="plane", location=loc, rotation=rot, scale=(a, b, 1.0), area=4 * a * b, side=side)
             m["base"] = (0.02, 0.02, 0.02)
@@ -228,7 +229,7 @@ def artist_params(seed: int) -> dict:
         if style in ("missing", "both"):
             missing = sides[:1] if (style == "both" or rng.random() < 0.6) else sides
         if style in ("windows", "both"):
-            for s in [s for s in SIDES if s not in missing][: rng.randint(1, 2)]:
+            for s in rng.sample([s for s in SIDES if s not in missing], rng.randint(1, 2)):
                 # the window as fractions of the wall's half-extents (u along the wall, v up): wide, not full
                 u0 = rng.uniform(-0.8, 0.1)
                 v0 = rng.uniform(-0.5, 0.0)

@@ -49,6 +49,14 @@ def window_plane(name: str, hole) -> bpy.types.Mesh:
     return _tag(me)
 
 
+def window_hole(wall: str, hole) -> tuple:
+    """A window (u0, u1, v0, v1: u along the wall, v up, fractions of the half-extents) in the wall plane's
+    local coordinates (placements in ``build``: wall_yn's local y points down, wall_x*'s local x up or down)."""
+    u0, u1, v0, v1 = hole
+    return {"wall_yp": (u0, u1, v0, v1), "wall_yn": (u0, u1, -v1, -v0),
+            "wall_xp": (v0, v1, u0, u1), "wall_xn": (-v1, -v0, u0, u1)}[wall]
+
+
 def _image(name: str, t: dict, base, res: int = 128) -> bpy.types.Image:
     """A generated tile image (no file; packed so that a saved .blend keeps it)."""
     rng = np.random.default_rng(t["seed"])
@@ -166,7 +174,8 @@ def _world(scene, prm) -> None:
     elif d["type"] == "sky":
         sky = nodes.new("ShaderNodeTexSky")
         sky.sky_type = d["sky"]
-        sky.sun_elevation, sky.sun_rotation = d["elevation"], d["azimuth"]
+        # Nishita-type skies turn the sun clockwise from +Y, _sun_dir (and Hosek-Wilkie) counter-clockwise
+        sky.sun_elevation, sky.sun_rotation = d["elevation"], (-d["azimuth"]) % math.tau
         sky.sun_direction = _sun_dir(d["elevation"], d["azimuth"])  # Hosek-Wilkie's sun
         if hasattr(sky, "sun_disc"):
             sky.sun_disc = False  # the Sun light object is the sun (EEVEE shadows it)
@@ -212,7 +221,8 @@ def _world(scene, prm) -> None:
 
 
 def _sun_dir(elevation: float, azimuth: float) -> tuple:
-    """Unit vector toward the sun; azimuth as the Sky Texture's sun_rotation (0: from +Y, counter-clockwise)."""
+    """Unit vector toward the sun; azimuth 0: toward +Y, counter-clockwise seen from above (Hosek-Wilkie's
+    sun_direction; Nishita-type skies take sun_rotation = -azimuth, measured)."""
     return (-math.sin(azimuth) * math.cos(elevation), math.cos(azimuth) * math.cos(elevation), math.sin(elevation))
 
 
@@ -236,8 +246,8 @@ def build(prm: dict, scene) -> None:
         name = f"{PREFIX}room.{w}"
         loc, rot, sc = placements[w]
         hole = d["window"]
-        if hole is not None and w in ("wall_xn", "wall_xp"):  # local x runs along z there: (v, u) order
-            hole = (hole[2], hole[3], hole[0], hole[1]) if w == "wall_xp" else (-hole[3], -hole[2], hole[0], hole[1])
+        if hole is not None:
+            hole = window_hole(w, hole)
         me = window_plane(name, hole) if hole is not None else mesh("plane", name)
         _object(scene, name, me, material(name, d["material"], sc), loc, rot, sc)
     for d in prm["objects"] + prm["emitters"]:

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import bpy
 
 from ...model.errors import UserError
-from ..blender.room import build_room
+from ..blender.room import MODES, build_room
 
 
 @dataclass
@@ -17,8 +17,11 @@ class RandomizeConfig:
     """What ``run`` builds; the defaults are those of ``cli.py randomize`` and the Dataset panel."""
     seed: int = 0  # room seed: the same seed gives the same room
     save: str | None = None  # save the scene to this .blend file
+    mode: str = "diffuse"  # "diffuse": the seed's diffuse rooms; "artist": docs/artist_rooms.md
 
     def check(self) -> None:
+        if self.mode not in MODES:
+            raise UserError(f"--mode {self.mode}: expected one of {', '.join(MODES)}")
         if self.save:
             d = os.path.dirname(os.path.abspath(self.save))
             if not os.path.isdir(d):
@@ -32,8 +35,8 @@ def run(cfg: RandomizeConfig) -> dict:
     cfg.check()
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    build_room(cfg.seed, scene)
-    out = {"seed": cfg.seed, "objects": len(scene.objects), "camera": scene.camera.name}
+    build_room(cfg.seed, scene, cfg.mode)
+    out = {"seed": cfg.seed, "mode": cfg.mode, "objects": len(scene.objects), "camera": scene.camera.name}
     if cfg.save:
         path = os.path.abspath(cfg.save)
         bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
