@@ -27,8 +27,10 @@ DEFAULT_DENOISE = False
 DEFAULT_EEVEE_SAMPLES = 1
 EEVEE_SAMPLE_GROUPS = passes.EEVEE_GROUPS
 CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
-# what a new folder's samples hold: every group but the artist-settings render `rest`
-BAKE_GROUPS = passes.BAKE_EEVEE_GROUPS + CYCLES_SAMPLE_GROUPS
+# what a new folder's samples hold: every group but the artist-settings render `rest` and, unless asked for
+# (--soft), the soft direct light (a render of passes.SOFT_SAMPLES samples: most of a sample's EEVEE time)
+BAKE_GROUPS = tuple(g for g in passes.BAKE_EEVEE_GROUPS if g != "direct_soft") + CYCLES_SAMPLE_GROUPS
+SOFT_BAKE_GROUPS = passes.BAKE_EEVEE_GROUPS + CYCLES_SAMPLE_GROUPS
 ROOM_MODES = room.MODES
 
 
@@ -121,7 +123,7 @@ def _complete(out, name, manifest) -> bool:
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
               shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
-              mode: str = "diffuse"):
+              mode: str = "diffuse", soft: bool = False):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -149,7 +151,8 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
-    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard, groups=BAKE_GROUPS)
+    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
+                                 groups=SOFT_BAKE_GROUPS if soft else BAKE_GROUPS)
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
@@ -232,6 +235,7 @@ class BakeConfig:
     scenes: list | None = None  # bake these .blend files' cameras instead of rooms
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
+    soft: bool = False  # also bake direct_soft (EEVEE's direct light at the lights' real size) into a new folder
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
@@ -247,7 +251,8 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     cfg.check()
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
-                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode)
+                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode,
+                    soft=cfg.soft)
     start = next(gen)
     if on_start:
         on_start(start)
