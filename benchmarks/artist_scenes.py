@@ -369,6 +369,7 @@ def tiny_material_scene(scene) -> dict[str, str]:
     world_colour(scene, (0.02, 0.02, 0.025))
     cam = camera(scene, (0.0, -3.0, 1.6), (0.0, 0.4, 0.3), lens=30.0, name="tiny_camera")
     render_settings(scene, (64, 36))
+    scene.view_layers[0].update()
     return {"camera": cam.name, "light": li.name, "floor": floor.name, "emissive": panel.name, "metal": metal.name,
             "glass": glass.name, "glossy": glossy.name}
 
@@ -381,6 +382,7 @@ def build(name: str, size=DEFAULT_SIZE):
     scene.name = name
     BUILDERS[name](scene)
     render_settings(scene, size)
+    scene.view_layers[0].update()  # the objects' matrix_world
     return scene
 
 
