@@ -19,8 +19,8 @@ def _f(x, fmt="{:.2f}") -> str:
 
 def _parts(m) -> str:
     t = m["summary"]["time"]
-    names = {"gbuffer_s": "G-buffer (sw GL)", "predict_s": "predict", "render_s": "render",
-             "denoise_s": "denoise"}
+    names = {"gbuffer_s": "G-buffer (sw GL)", "rest_s": "EEVEE's other components (sw GL)", "predict_s": "predict",
+             "render_s": "render", "denoise_s": "denoise"}
     return " + ".join(f"{names[k]} {fmt_t(t[k])}" for k in names if k in t and k != "whole_s")
 
 

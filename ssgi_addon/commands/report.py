@@ -65,6 +65,9 @@ def register_cli(sub) -> None:
                    help="EEVEE GI render samples, default quality (default %(default)s, Blender's default)")
     p.add_argument("--eevee-high-samples", type=cliargs.positive_int, default=D.eevee_high_samples,
                    help="EEVEE GI render samples, high quality (default %(default)s)")
+    p.add_argument("--ssgi-samples", type=cliargs.positive_int, default=D.ssgi_samples,
+                   help="EEVEE samples of the SSGI path's own renders (its G-buffer and EEVEE's other components, "
+                        "'rest') for models that predict the diffuse part (default %(default)s)")
     p.add_argument("--sizes", type=size_list, default=D.sizes,
                    help=f"scaling sizes (default {DEFAULT_SIZES}); --sizes '' is not allowed: use --no-scaling")
     p.add_argument("--no-scaling", action="store_true", help="skip the scaling measurements")
@@ -86,7 +89,7 @@ def config(args) -> ReportConfig:
                         max_scenes=args.max_scenes, split=args.split, spp=tuple(args.spp), size=args.size,
                         ref_samples=args.ref_samples, reference_scenes=args.reference_scenes,
                         eevee_samples=args.eevee_samples, eevee_high_samples=args.eevee_high_samples,
-                        sizes=tuple(args.sizes), scaling=not args.no_scaling, temporal_frames=args.temporal_frames,
+                        ssgi_samples=args.ssgi_samples, sizes=tuple(args.sizes), scaling=not args.no_scaling, temporal_frames=args.temporal_frames,
                         temporal_ref_samples=args.temporal_ref_samples, threads=args.threads,
                         fit_baseline=not args.no_fit_baseline,
                         command="cli.py " + " ".join(shlex.quote(a) for a in argv))

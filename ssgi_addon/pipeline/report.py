@@ -36,6 +36,7 @@ class ReportConfig:
     reference_scenes: int = 1  # re-render the reference (another seed) on this many scenes, for its time
     eevee_samples: int = 64  # EEVEE GI render samples, default quality (Blender's default)
     eevee_high_samples: int = 64  # EEVEE GI render samples, high quality
+    ssgi_samples: int = 16  # EEVEE samples of the SSGI path's passes (G-buffer and rest) for diffuse-part models
     sizes: tuple[str, ...] = ("240x135", "960x540", "1920x1080")  # the scaling measurements' sizes
     scaling: bool = True  # measure the scaling
     temporal_frames: int = 4  # frames of the camera move for temporal stability (0 or 1 skips it)
@@ -63,7 +64,7 @@ class ReportConfig:
         spp = list(self.spp)
         if not spp or any(int(v) < 1 for v in spp) or len(set(spp)) != len(spp) or spp != sorted(spp):
             raise UserError(f"--spp {','.join(map(str, spp))}: give distinct sample counts >= 1 in ascending order")
-        for name in ("max_scenes", "eevee_samples", "eevee_high_samples", "threads"):
+        for name in ("max_scenes", "eevee_samples", "eevee_high_samples", "ssgi_samples", "threads"):
             if int(getattr(self, name)) < 1:
                 raise UserError(f"--{name.replace('_', '-')} {getattr(self, name)}: must be >= 1")
         for name in ("reference_scenes", "temporal_frames"):
@@ -155,7 +156,7 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
         scenes, over, n2 = dataset_scenes(cfg.data, [pr.ckpt for _, pr in preds], cfg.max_scenes, cfg.split)
     notes += n2
     settings = Settings(spp=tuple(cfg.spp), eevee_samples=cfg.eevee_samples,
-                        eevee_high_samples=cfg.eevee_high_samples,
+                        eevee_high_samples=cfg.eevee_high_samples, ssgi_samples=cfg.ssgi_samples,
                         reference_scenes=min(cfg.reference_scenes, len(scenes)), threads=cfg.threads,
                         sizes=tuple(cfg.sizes), temporal_frames=cfg.temporal_frames,
                         temporal_ref_samples=cfg.temporal_ref_samples or over["ref_samples"], **over)

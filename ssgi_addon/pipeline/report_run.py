@@ -33,6 +33,7 @@ import numpy as np
 from ...model import channels as ch
 from ...model import images, metrics
 from ...model.evaluate import analysis
+from ...model.infer.compose import compose
 from ...model.errors import UserError
 from ..blender import passes
 from .report_scenes import RASTER_GROUPS, EvalScene
@@ -54,6 +55,11 @@ def _needs_world(pred) -> bool:
     return "world" in ch.required_groups(tuple(pred.spec))
 
 
+def _diffuse(pred) -> bool:
+    """A model that predicts the diffuse part: its image is prediction + EEVEE's own rest (infer/compose.py)."""
+    return pred.target == ch.DIFFUSE_TARGET
+
+
 @dataclass(kw_only=True)
 class Settings:
     """What ReportRun renders: the stage fills every field from its ReportConfig (where the defaults live) and
@@ -62,6 +68,7 @@ class Settings:
     spp: tuple[int, ...]
     eevee_samples: int
     eevee_high_samples: int
+    ssgi_samples: int = 16  # EEVEE samples of the SSGI passes (G-buffer and rest) for diffuse-part models
     ref_samples: int
     ref_denoise: bool
     gbuffer_samples: int
@@ -149,7 +156,9 @@ class ReportRun:
         self._world = any(_needs_world(p) for _, p in models)  # the world pass only when a model reads it
         self._steps = 0
         self._t0 = time.perf_counter()
-        self.total_steps = len(scenes) * (2 + len(models) + len(GI_PRESETS) + 2 * len(settings.spp)) + settings.reference_scenes
+        n_ssgi = 1 if any(_diffuse(p) for _, p in models) else 0
+        self.total_steps = (len(scenes) * (2 + n_ssgi + len(models) + len(GI_PRESETS) + 2 * len(settings.spp))
+                            + settings.reference_scenes)
 
     # --- bookkeeping
     def _step(self, what: str) -> None:
@@ -205,6 +214,8 @@ class ReportRun:
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
         for _, pred in self._model_keys.values():
             pred.predict(g)
+        if any(_diffuse(p) for _, p in self._model_keys.values()):
+            passes.render_rest(scene, 1)  # the scene's own EEVEE settings compile their shaders too
         self._warm = True
 
     def run(self) -> tuple[dict, dict]:
@@ -252,14 +263,27 @@ class ReportRun:
         self.raw.setdefault("geometry_fraction", {})[name] = float(mask.mean())
         self._score("eevee_direct", name, g["eevee"][..., :3], ref, mask,
                     dict(gbuffer_s=t_g, whole_s=t_g, own_s=t_g))
+        gd, t_gd, t_rest = None, 0.0, 0.0
+        if any(_diffuse(p) for _, p in self._model_keys.values()):
+            # the SSGI path of a diffuse-part model: its G-buffer and EEVEE's own other components at the same
+            # samples (their anti-aliasing must agree), as the render path renders them
+            gd = es.gbuffer(scene, s.ssgi_samples, world=self._world)
+            t_gd = es.t_raster
+            (gd["rest"], _beauty), t_rest = _timed(passes.render_rest, scene, s.ssgi_samples)
+            self._step(f"{name}: SSGI passes at {s.ssgi_samples} samples: G-buffer {t_gd:.2f} s, rest {t_rest:.2f} s")
         for key, (path, pred) in self._model_keys.items():
+            gg = gd if _diffuse(pred) else g
             ts, img = [], None
             for _ in range(max(1, s.predict_repeats)):
-                img, t = _timed(pred.predict, g)
+                img, t = _timed(pred.predict, gg)
                 ts.append(t)
             t_p = float(np.median(ts))
-            t_gb = t_g + (t_w if _needs_world(pred) else 0.0)
-            self._score(key, name, img, ref, mask, dict(gbuffer_s=t_gb, predict_s=t_p, whole_s=t_gb + t_p, own_s=t_p))
+            times = dict(gbuffer_s=(t_gd if _diffuse(pred) else t_g) + (t_w if _needs_world(pred) else 0.0), predict_s=t_p)
+            if _diffuse(pred):
+                img = compose(img, gg, pred.target)
+                times["rest_s"] = t_rest
+            times.update(whole_s=sum(times.values()), own_s=t_p)
+            self._score(key, name, img, ref, mask, times)
             self._step(f"{name}: {Path(path).name} {t_p * 1000:.0f} ms")
         for k in GI_PRESETS:
             img, t = _timed(render_eevee_gi, scene, k, s.eevee_samples if k == "default" else s.eevee_high_samples)
@@ -335,8 +359,13 @@ class ReportRun:
             bpy.context.view_layer.update()
             g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
             seqs.setdefault("EEVEE direct light only", []).append(g["eevee"][..., :3])
+            gd = None
+            if any(_diffuse(p) for _, p in self._model_keys.values()):
+                gd = es.gbuffer(scene, s.ssgi_samples, world=self._world)
+                gd["rest"] = passes.render_rest(scene, s.ssgi_samples)[0]
             for key, (path, pred) in self._model_keys.items():
-                seqs.setdefault(self.raw["methods"][key]["label"], []).append(pred.predict(g))
+                img = compose(pred.predict(gd), gd, pred.target) if _diffuse(pred) else pred.predict(g)
+                seqs.setdefault(self.raw["methods"][key]["label"], []).append(img)
             if rung is not None:
                 img = passes.render_cycles(scene, rung[0], seed=LADDER_SEED, denoise=True)["ref"]
                 seqs.setdefault(f"Cycles {rung[0]} spp + OIDN (equal time)", []).append(img)
