@@ -38,6 +38,7 @@ MANIFEST = "manifest.json"
 SAMPLE_RE = re.compile(r"^(\d{6})\.exr$")
 # settings that must agree for samples to share one folder
 IDENTITY_SETTINGS = ("kind", "size", "ref_samples", "ref_target_db", "denoise", "eevee_samples", "diffuse_bounces", "first_seed",
+                     "room_mode",
                      "scenes", "frames", "half")
 
 

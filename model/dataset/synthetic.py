@@ -51,9 +51,26 @@ def sample(w: int, h: int, seed: int, scene_seed: int) -> dict[str, np.ndarray]:
                 world=world, eevee=eevee.astype(np.float32), ref=ref.astype(np.float32))
 
 
+def with_emission(g: dict, seed: int) -> dict:
+    """A sample of the issue-14 format: an emissive patch (``emission``, zero albedo there), the diffuse part of
+    the reference (``ref_diffuse``) and the whole reference = diffuse part + emission."""
+    g = dict(g)
+    h, w = g["albedo"].shape[:2]
+    rs = np.random.default_rng(seed)
+    em = np.zeros((h, w, 3), np.float32)
+    y0, x0 = rs.integers(0, h - 2), rs.integers(0, w - 2)
+    em[y0:y0 + 3, x0:x0 + 3] = rs.uniform(1, 4, 3)
+    g["albedo"] = np.where(em.max(-1, keepdims=True) > 0, np.float32(0), g["albedo"]).astype(np.float32)
+    g["ref_diffuse"] = (g["ref"] * (g["albedo"] > 0)).astype(np.float32)
+    g["emission"] = em
+    g["ref"] = (g["ref_diffuse"] + em).astype(np.float32)
+    return g
+
+
 def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int = 32, seed: int = 0,
-                 half: bool = False) -> Path:
-    """Write a synthetic dataset folder; returns its path."""
+                 half: bool = False, emission: bool = False) -> Path:
+    """Write a synthetic dataset folder; returns its path. With ``emission``, the samples hold the groups of the
+    issue-14 bakes too (``with_emission``), so models trained on it learn the diffuse part."""
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     samples = {}
@@ -62,11 +79,12 @@ def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int 
         for v in range(per_scene):
             key = folder.sample_name(k)
             sd = seed * 100003 + k
-            exrio.write_sample(folder.sample_path(root, key), sample(w, h, sd, seed * 1009 + s), half=half)
+            g = sample(w, h, sd, seed * 1009 + s)
+            exrio.write_sample(folder.sample_path(root, key), with_emission(g, sd) if emission else g, half=half)
             samples[key] = dict(seed=sd, scene=f"synthetic-{seed}-{s}", camera=v, frame=1, timings={})
             k += 1
     m = folder.new_manifest(dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), "synthetic",
-                            groups=tuple(sample(2, 2, 0, 0)))
+                            groups=tuple(sample(2, 2, 0, 0)) + (("emission", "ref_diffuse") if emission else ()))
     m["samples"] = samples
     folder.write_manifest(root, m)
     return root

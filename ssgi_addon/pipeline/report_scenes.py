@@ -51,11 +51,11 @@ class EvalScene:
 # --------------------------------------------------------------------------------------------- scenes
 
 
-def _room_opener(seed: int, size):
+def _room_opener(seed: int, size, mode: str = "diffuse"):
     def open_():
         bpy.ops.wm.read_factory_settings(use_empty=True)
         scene = bpy.context.scene
-        room.build_room(int(seed), scene)
+        room.build_room(int(seed), scene, mode=mode)
         passes.set_resolution(scene, *size)
         return scene
     return open_
@@ -151,7 +151,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
             opener = _blend_opener(Path(meta["blend"]), meta.get("blend_scene"), cam, meta.get("frame"), size)
             name = f"{sc}:{cam}:{meta.get('frame')}" if per_sample else sc
         elif "seed" in meta:
-            opener = _room_opener(int(meta["seed"]), size)
+            opener = _room_opener(int(meta["seed"]), size, st.get("room_mode", "diffuse"))
             name = sc
         else:
             raise UserError(f"{root / 'manifest.json'}: sample {key} names neither a room seed nor a .blend file")
