@@ -41,6 +41,7 @@ PLAZA = 8.0  # exteriors: buildings stand beyond this radius (m) from the origin
 P_KIND = (("closed", 0.40), ("open", 0.35), ("exterior", 0.25))
 P_LIGHTING = (("lamps", 0.35), ("emission", 0.30), ("mixed", 0.35))  # rooms; exteriors: sun/sky (+ emitters)
 P_SUN_OPEN, P_SUN_EXTERIOR = 0.6, 0.85
+OVERCAST = 1.5  # an exterior without a Sun light: its sky this much brighter
 P_BIG_AREA = 0.3  # of the lamps in a lamp-lit room: one is a 1-3 m area light
 P_OBJ = (("dielectric", 0.52), ("metal", 0.22), ("glass", 0.14), ("emissive", 0.12))
 P_TEX_OBJ, P_TEX_FLOOR, P_TEX_WALL = 0.3, 0.55, 0.25
@@ -273,7 +274,7 @@ def artist_params(seed: int) -> dict:
 
 def _sun(rng) -> dict:
     return dict(elevation=_r(math.radians(rng.uniform(12.0, 65.0))), azimuth=_r(rng.uniform(0, math.tau)),
-                energy=_r(rng.uniform(1.5, 4.0)), angle=_r(math.radians(rng.uniform(0.5, 4.0))),
+                energy=_r(rng.uniform(1.0, 3.0)), angle=_r(math.radians(rng.uniform(0.5, 4.0))),
                 colour=tuple(_r(c) for c in colorsys.hsv_to_rgb(rng.uniform(0.05, 0.12), rng.uniform(0.0, 0.3), 1.0)))
 
 
@@ -282,7 +283,7 @@ def _world(rng, sun) -> dict:
     the sky's light on a horizontal surface (W/m^2), so that any sky lights a scene alike."""
     elev = sun["elevation"] if sun else _r(math.radians(rng.uniform(10.0, 60.0)))
     az = sun["azimuth"] if sun else _r(rng.uniform(0, math.tau))
-    irr = _r(rng.uniform(0.6, 2.0))
+    irr = _r(rng.uniform(0.5, 1.6))
     if rng.random() < 0.6:
         t = rng.choice(SKIES)
         return dict(type="sky", sky=t, elevation=elev, azimuth=az, irradiance=irr,
@@ -367,14 +368,15 @@ def _exterior(rng, seed: int) -> dict:
     sun = _sun(rng) if rng.random() < P_SUN_EXTERIOR else None
     world = _world(rng, sun)
     if sun is None:  # overcast: a brighter sky does the sun's work
-        world["irradiance"] = _r(world["irradiance"] * 2.0)
-        world["strength"] = _r(world["strength"] * 2.0)
+        world["irradiance"] = _r(world["irradiance"] * OVERCAST)
+        world["strength"] = _r(world["strength"] * OVERCAST)
     glowing = [o for o in objects if o["material"]["kind"] == "emissive"]
     for o in glowing:
         o["area"] = _r(4 * math.pi * (o["radius"] / 1.5) ** 2)
         o["material"]["strength"] = _r(rng.uniform(2.0, 8.0))
     occupied = objects  # buildings stand outside the plaza
-    target = (rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(0.3, 1.2))
+    # nearly level: the upper part of the frame shows buildings and sky
+    target = (rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(0.9, 2.0))
     for _ in range(500):
         a, r = rng.uniform(0, math.tau), rng.uniform(3.0, 7.0)
         p = (r * math.cos(a), r * math.sin(a), rng.uniform(1.5, 1.8))
