@@ -34,6 +34,7 @@ SKY_RADIANCE = {"SINGLE_SCATTERING": 3.1, "MULTIPLE_SCATTERING": 5.0, "HOSEK_WIL
 METALS = ((0.95, 0.93, 0.88), (1.0, 0.78, 0.34), (0.95, 0.64, 0.54), (0.56, 0.57, 0.58), (0.91, 0.92, 0.92))
 EMISSION_GAIN = 1.0  # emitter power / lamp power for alike light (docs/artist_rooms.md)
 CAMERA_CLEARANCE = 0.35
+LAMP_CLEARANCE = 1.2
 MIN_WALL_GAP = 0.6
 PLAZA = 8.0  # exteriors: buildings stand beyond this radius (m) from the origin; camera within 7 m
 
@@ -247,7 +248,7 @@ def artist_params(seed: int) -> dict:
     objects = _objects(rng, rng.randint(3, 9), rng.uniform(-0.15, 0.15) * W, rng.uniform(-0.15, 0.15) * D,
                        0.3 * W, 0.3 * D, H, 0.18, 0.6, P_TEX_OBJ)
     scale = (W * D + W * H + D * H) / 3.0  # as the diffuse rooms: ~ squared room size
-    power = scale * rng.uniform(2.0, 7.0)
+    power = scale * rng.uniform(1.2, 4.0)  # W (lamps) or emitted (emitters); measured: docs/artist_rooms.md
     n_emit = 0 if lighting == "lamps" else rng.randint(1, 3)
     emitters, poles = _emitters(rng, W, D, H, n_emit)
     objects += poles
@@ -256,7 +257,7 @@ def artist_params(seed: int) -> dict:
         o["area"] = _r(4 * math.pi * (o["radius"] / 1.5) ** 2)
     if lighting == "lamps":  # glowing objects are accents there, the lamps light the room
         for o in glowing:
-            o["material"]["strength"] = _r(rng.uniform(1.0, 4.0))
+            o["material"]["strength"] = _r(rng.uniform(0.5, 2.0))
     else:
         _set_emission(emitters + glowing, power * EMISSION_GAIN * (1.0 if lighting == "emission" else 0.5))
     lights = []
@@ -266,7 +267,7 @@ def artist_params(seed: int) -> dict:
         for li in lights:
             li["energy"] = _r(li["energy"] * 0.5)
     target = _centre(objects, H)
-    camera = _room_camera(rng, W, D, H, objects + emitters, target)
+    camera = _room_camera(rng, W, D, H, objects + emitters, target, [li["location"] for li in lights])
     return dict(seed=int(seed), mode="artist", kind=kind, lighting=lighting, size=(W, D, H), walls=walls,
                 missing=missing, world=world, sun=sun, objects=objects, emitters=emitters, lights=lights,
                 camera=camera)
@@ -338,11 +339,14 @@ def _camera(rng, p, target, lens_lo=18.0, lens_hi=32.0) -> dict:
                 lens=_r(rng.uniform(lens_lo, lens_hi)))
 
 
-def _room_camera(rng, W, D, H, occupied, target) -> dict:
-    for _ in range(500):
+def _room_camera(rng, W, D, H, occupied, target, lamps) -> dict:
+    """Inside the room, outside every object, 1.5 m from what it looks at and (in the first 300 tries) 1.2 m
+    from every lamp (a lamp beside the camera blows out the frame)."""
+    for k in range(500):
         g = MIN_WALL_GAP
         p = (rng.uniform(-W / 2 + g, W / 2 - g), rng.uniform(-D / 2 + g, D / 2 - g), rng.uniform(0.5, min(2.0, H - g)))
-        if all(_dist(p, o["location"]) > o["radius"] + CAMERA_CLEARANCE for o in occupied) and _dist(p, target) > 1.5:
+        if (all(_dist(p, o["location"]) > o["radius"] + CAMERA_CLEARANCE for o in occupied) and _dist(p, target) > 1.5
+                and (k >= 300 or all(_dist(p, q) > LAMP_CLEARANCE for q in lamps))):
             break
     return _camera(rng, p, target)
 
