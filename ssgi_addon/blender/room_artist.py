@@ -32,7 +32,7 @@ SKIES = ("SINGLE_SCATTERING", "MULTIPLE_SCATTERING", "HOSEK_WILKIE")
 # equirectangular camera, docs/artist_rooms.md): a sky's strength is irradiance / (pi * this)
 SKY_RADIANCE = {"SINGLE_SCATTERING": 3.1, "MULTIPLE_SCATTERING": 5.0, "HOSEK_WILKIE": 0.11}
 METALS = ((0.95, 0.93, 0.88), (1.0, 0.78, 0.34), (0.95, 0.64, 0.54), (0.56, 0.57, 0.58), (0.91, 0.92, 0.92))
-EMISSION_GAIN = 1.0  # emitter power / lamp power for alike light (docs/artist_rooms.md)
+EMISSION_GAIN = 1.5  # emitted power / a lamp's power for alike light (measured: docs/artist_rooms.md)
 CAMERA_CLEARANCE = 0.35
 LAMP_CLEARANCE = 1.2
 MIN_WALL_GAP = 0.6
