@@ -57,7 +57,8 @@ def _pick(rng: random.Random, table) -> str:
     return table[-1][0]
 
 
-def _rgb(rng: random.Random, sat_max=0.9, v_lo=0.15, v_hi=0.9) -> tuple:
+def colour(rng: random.Random, sat_max: float = 0.9, v_lo: float = 0.15, v_hi: float = 0.9) -> tuple:
+    """A colour from dull to saturated (linear RGB, max component <= v_hi); the diffuse rooms' too."""
     h = rng.random()
     s = rng.uniform(0.0, sat_max) if rng.random() < 0.7 else rng.uniform(0.0, 0.15)
     return tuple(round(c, 6) for c in colorsys.hsv_to_rgb(h, s, rng.uniform(v_lo, v_hi)))
@@ -67,10 +68,10 @@ def _r(x: float) -> float:
     return round(x, 6)
 
 
-def texture(rng: random.Random, base: tuple) -> dict:
+def texture(rng: random.Random) -> dict:
     """A base-colour texture: type, scale (per metre; tiles of ~0.1-0.5 m show at 240x135), second colour."""
     kind = rng.choice(TEXTURES)
-    t = dict(type=kind, colour2=_rgb(rng, 0.8, 0.1, 0.9))
+    t = dict(type=kind, colour2=colour(rng, 0.8, 0.1, 0.9))
     t["scale"] = _r({"checker": rng.uniform(1.5, 5.0), "noise": rng.uniform(0.8, 4.0),
                      "voronoi": rng.uniform(1.5, 6.0), "brick": rng.uniform(1.0, 3.0),
                      "wave": rng.uniform(0.5, 2.5), "image": rng.uniform(0.4, 1.5)}[kind])
@@ -86,27 +87,28 @@ def texture(rng: random.Random, base: tuple) -> dict:
 
 def material(rng: random.Random, kind: str, tex_p: float = 0.0) -> dict:
     """A Principled BSDF's settings: kind dielectric|metal|glass|emissive (emission strength set later)."""
-    m = dict(kind=kind, base=_rgb(rng), roughness=_r(rng.uniform(0.15, 1.0)),
+    m = dict(kind=kind, base=colour(rng), roughness=_r(rng.uniform(0.15, 1.0)),
              specular=_r(rng.choice((0.5, rng.uniform(0.0, 1.0)))), metallic=0.0, transmission=0.0,
              ior=1.5, coat=0.0, texture=None, emission=None, strength=0.0)
     if kind == "metal":
-        m.update(metallic=1.0, base=rng.choice(METALS) if rng.random() < 0.7 else _rgb(rng, 0.6, 0.5, 0.95),
+        m.update(metallic=1.0, base=rng.choice(METALS) if rng.random() < 0.7 else colour(rng, 0.6, 0.5, 0.95),
                  roughness=_r(rng.choice((rng.uniform(0.0, 0.08), rng.uniform(0.1, 0.5)))))
     elif kind == "glass":
         clear = rng.random() < 0.6
         m.update(transmission=1.0, roughness=_r(0.0 if clear else rng.uniform(0.1, 0.4)), specular=0.5,
-                 ior=_r(rng.uniform(1.4, 1.6)), base=_rgb(rng, 0.4, 0.85, 1.0))
+                 ior=_r(rng.uniform(1.4, 1.6)), base=colour(rng, 0.4, 0.85, 1.0))
     elif kind == "emissive":
-        m.update(emission=_rgb(rng, 0.7, 1.0, 1.0), base=_rgb(rng, 0.3, 0.5, 0.9), roughness=0.5)
+        m.update(emission=colour(rng, 0.7, 1.0, 1.0), base=colour(rng, 0.3, 0.5, 0.9), roughness=0.5)
     else:
         if rng.random() < 0.15:
             m["coat"] = _r(rng.uniform(0.3, 1.0))
         if rng.random() < tex_p:
-            m["texture"] = texture(rng, m["base"])
+            m["texture"] = texture(rng)
     return m
 
 
-def _bsphere(shape: str, s: float) -> float:
+def bsphere(shape: str, s: float) -> float:
+    """Bounding-sphere radius of a unit primitive (spans [-1, 1]) scaled by ``s``; the diffuse rooms' too."""
     return s * {"cube": math.sqrt(3.0), "cone": math.sqrt(2.0), "cylinder": math.sqrt(2.0), "sphere": 1.0,
                 "monkey": 1.49, "plane": math.sqrt(2.0)}[shape]
 
@@ -140,7 +142,7 @@ def _objects(rng, n, cx, cy, spread_x, spread_y, H, size_lo, size_hi, tex_p, nam
             z = sz * (0.984 if shape == "monkey" else 1.0)
         kind = _pick(rng, P_OBJ)
         out.append(dict(name=f"{PREFIX}{name}.{i:02d}.{shape}", shape=shape, location=(_r(x), _r(y), _r(z)),
-                        rotation=rot, scale=(_r(sx), _r(sy), _r(sz)), radius=_r(_bsphere(shape, max(sx, sy, sz))),
+                        rotation=rot, scale=(_r(sx), _r(sy), _r(sz)), radius=_r(bsphere(shape, max(sx, sy, sz))),
                         material=material(rng, kind, tex_p)))
     return out
 
@@ -192,7 +194,7 @@ def _emitters(rng, W, D, H, n):
             rot = (0.0, math.pi / 2, 0.0) if along_x else (math.pi / 2, 0.0, 0.0)
             d = dict(shape="cylinder", location=loc, rotation=rot, scale=(rad, rad, length / 2),
                      area=2 * math.pi * rad * length, side=side)
-            m["emission"] = _rgb(rng, 1.0, 1.0, 1.0) if rng.random() < 0.5 else m["emission"]
+            m["emission"] = colour(rng, 1.0, 1.0, 1.0) if rng.random() < 0.5 else m["emission"]
         d.update(name=nm, kind=kind, material=m,
                  location=tuple(_r(v) for v in d["location"]), scale=tuple(_r(v) for v in d["scale"]),
                  rotation=tuple(_r(v) for v in d["rotation"]))
@@ -220,7 +222,7 @@ def artist_params(seed: int) -> dict:
     for w in WALLS:
         tex_p = P_TEX_FLOOR if w == "floor" else P_TEX_WALL
         m = material(rng, "dielectric", tex_p)
-        m["base"] = _rgb(rng, 0.6, 0.2, 0.85)
+        m["base"] = colour(rng, 0.6, 0.2, 0.85)
         if w == "floor" and rng.random() < 0.45:  # a glossy floor
             m["roughness"], m["specular"] = _r(rng.uniform(0.03, 0.3)), _r(rng.uniform(0.4, 1.0))
         walls[w] = dict(material=m, window=None)
@@ -289,8 +291,8 @@ def _world(rng, sun) -> dict:
         t = rng.choice(SKIES)
         return dict(type="sky", sky=t, elevation=elev, azimuth=az, irradiance=irr,
                     strength=_r(irr / (math.pi * SKY_RADIANCE[t])))
-    return dict(type="gradient", zenith=_rgb(rng, 0.6, 0.4, 1.0), horizon=_rgb(rng, 0.35, 0.7, 1.0),
-                ground=_rgb(rng, 0.4, 0.1, 0.4), elevation=elev, azimuth=az, irradiance=irr,
+    return dict(type="gradient", zenith=colour(rng, 0.6, 0.4, 1.0), horizon=colour(rng, 0.35, 0.7, 1.0),
+                ground=colour(rng, 0.4, 0.1, 0.4), elevation=elev, azimuth=az, irradiance=irr,
                 strength=_r(irr / math.pi / 0.8), disc=_r(rng.uniform(50.0, 400.0)),
                 disc_size=_r(math.radians(rng.uniform(0.5, 3.0))))
 
@@ -308,7 +310,7 @@ def _lamps(rng, W, D, H, occupied, power) -> list:
                 break
         e = power / n ** 0.5
         d = dict(name=f"{PREFIX}light.{i}.{t.lower()}", type=t, location=tuple(_r(v) for v in p),
-                 colour=_rgb(rng, 0.45, 1.0, 1.0), energy=_r(e), radius=_r(rng.uniform(0.05, 0.4)))
+                 colour=colour(rng, 0.45, 1.0, 1.0), energy=_r(e), radius=_r(rng.uniform(0.05, 0.4)))
         aim = (rng.uniform(-0.3, 0.3) * W, rng.uniform(-0.3, 0.3) * D, 0.0)
         if t == "SPOT":
             d.update(spot_size=_r(math.radians(rng.uniform(60.0, 120.0))), spot_blend=_r(rng.uniform(0.05, 0.5)),
@@ -355,7 +357,7 @@ def _exterior(rng, seed: int) -> dict:
     """Ground, 3-10 box buildings around a plaza, 2-7 primitives on it, a human-height camera; sun and sky."""
     G = 80.0  # ground plane size (m)
     ground = material(rng, "dielectric", 0.6)
-    ground["base"] = _rgb(rng, 0.35, 0.15, 0.55)
+    ground["base"] = colour(rng, 0.35, 0.15, 0.55)
     buildings = []
     for i in range(rng.randint(3, 10)):
         sx, sy, sz = rng.uniform(1.5, 6.0), rng.uniform(1.5, 6.0), rng.uniform(1.5, 10.0)
@@ -363,7 +365,7 @@ def _exterior(rng, seed: int) -> dict:
         ang, r = rng.uniform(0, math.tau), rng.uniform(PLAZA, 25.0) + math.hypot(sx, sy)
         m = material(rng, "metal" if rng.random() < 0.1 else "dielectric", 0.35)
         if m["kind"] == "dielectric":
-            m["base"] = _rgb(rng, 0.5, 0.2, 0.8)
+            m["base"] = colour(rng, 0.5, 0.2, 0.8)
         buildings.append(dict(name=f"{PREFIX}bldg.{i:02d}.cube", shape="cube",
                               location=(_r(r * math.cos(ang)), _r(r * math.sin(ang)), _r(sz)),
                               rotation=(0.0, 0.0, _r(rng.uniform(0, math.pi))), scale=(_r(sx), _r(sy), _r(sz)),
