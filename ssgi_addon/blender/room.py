@@ -9,7 +9,6 @@ Everything the room adds carries the custom property ``ssgi_room`` and a name st
 """
 from __future__ import annotations
 
-import colorsys
 import math
 import random
 
@@ -17,30 +16,15 @@ import bpy
 import bmesh
 from mathutils import Vector
 
-PREFIX = "ssgi."
-SHAPES = ("cube", "cone", "cylinder", "sphere", "monkey")
+# the bpy-free pieces both modes share (room_artist.py is plain data, importable without bpy)
+from .room_artist import PREFIX, SHAPES, WALLS, bsphere as _half_extent, colour as _colour  # noqa: F401
+
 LIGHT_TYPES = ("POINT", "AREA", "SPOT")
-WALLS = ("floor", "ceiling", "wall_xn", "wall_xp", "wall_yn", "wall_yp")
 MIN_WALL_GAP = 0.6  # the camera stays at least this far (m) from every wall
 CAMERA_CLEARANCE = 0.35  # ... and this far outside every object's bounding sphere
 SHADING = ("Roughness", "Specular IOR Level", "Metallic", "Transmission Weight", "Emission Strength")
 
 # --------------------------------------------------------------------------------------------- parameters
-
-
-def _colour(rng: random.Random, sat_max: float = 0.9, v_lo: float = 0.15, v_hi: float = 0.9) -> tuple:
-    """A diffuse colour from dull to saturated (linear RGB, max component <= v_hi)."""
-    h = rng.random()
-    s = rng.uniform(0.0, sat_max) if rng.random() < 0.7 else rng.uniform(0.0, 0.15)
-    v = rng.uniform(v_lo, v_hi)
-    r, g, b = colorsys.hsv_to_rgb(h, s, v)
-    return (round(r, 6), round(g, 6), round(b, 6))
-
-
-def _half_extent(shape: str, size: float) -> float:
-    """Bounding-sphere radius of a primitive of half-size ``size`` (unit-size meshes scaled by ``size``)."""
-    return size * {"cube": math.sqrt(3.0), "cone": math.sqrt(2.0), "cylinder": math.sqrt(2.0),
-                   "sphere": 1.0, "monkey": 1.49}[shape]
 
 
 MODES = ("diffuse", "artist")

@@ -32,8 +32,9 @@ SKIES = ("SINGLE_SCATTERING", "MULTIPLE_SCATTERING", "HOSEK_WILKIE")
 # equirectangular camera, docs/artist_rooms.md): a sky's strength is irradiance / (pi * this)
 SKY_RADIANCE = {"SINGLE_SCATTERING": 3.1, "MULTIPLE_SCATTERING": 5.0, "HOSEK_WILKIE": 0.11}
 METALS = ((0.95, 0.93, 0.88), (1.0, 0.78, 0.34), (0.95, 0.64, 0.54), (0.56, 0.57, 0.58), (0.91, 0.92, 0.92))
-EMISSION_GAIN = 1.0  # emitter power / lamp power for alike light (docs/artist_rooms.md)
+EMISSION_GAIN = 1.5  # emitted power / a lamp's power for alike light (measured: docs/artist_rooms.md)
 CAMERA_CLEARANCE = 0.35
+LAMP_CLEARANCE = 1.2
 MIN_WALL_GAP = 0.6
 PLAZA = 8.0  # exteriors: buildings stand beyond this radius (m) from the origin; camera within 7 m
 
@@ -41,6 +42,7 @@ PLAZA = 8.0  # exteriors: buildings stand beyond this radius (m) from the origin
 P_KIND = (("closed", 0.40), ("open", 0.35), ("exterior", 0.25))
 P_LIGHTING = (("lamps", 0.35), ("emission", 0.30), ("mixed", 0.35))  # rooms; exteriors: sun/sky (+ emitters)
 P_SUN_OPEN, P_SUN_EXTERIOR = 0.6, 0.85
+OVERCAST = 1.5  # an exterior without a Sun light: its sky this much brighter
 P_BIG_AREA = 0.3  # of the lamps in a lamp-lit room: one is a 1-3 m area light
 P_OBJ = (("dielectric", 0.52), ("metal", 0.22), ("glass", 0.14), ("emissive", 0.12))
 P_TEX_OBJ, P_TEX_FLOOR, P_TEX_WALL = 0.3, 0.55, 0.25
@@ -55,7 +57,8 @@ def _pick(rng: random.Random, table) -> str:
     return table[-1][0]
 
 
-def _rgb(rng: random.Random, sat_max=0.9, v_lo=0.15, v_hi=0.9) -> tuple:
+def colour(rng: random.Random, sat_max: float = 0.9, v_lo: float = 0.15, v_hi: float = 0.9) -> tuple:
+    """A colour from dull to saturated (linear RGB, max component <= v_hi); the diffuse rooms' too."""
     h = rng.random()
     s = rng.uniform(0.0, sat_max) if rng.random() < 0.7 else rng.uniform(0.0, 0.15)
     return tuple(round(c, 6) for c in colorsys.hsv_to_rgb(h, s, rng.uniform(v_lo, v_hi)))
@@ -65,10 +68,10 @@ def _r(x: float) -> float:
     return round(x, 6)
 
 
-def texture(rng: random.Random, base: tuple) -> dict:
+def texture(rng: random.Random) -> dict:
     """A base-colour texture: type, scale (per metre; tiles of ~0.1-0.5 m show at 240x135), second colour."""
     kind = rng.choice(TEXTURES)
-    t = dict(type=kind, colour2=_rgb(rng, 0.8, 0.1, 0.9))
+    t = dict(type=kind, colour2=colour(rng, 0.8, 0.1, 0.9))
     t["scale"] = _r({"checker": rng.uniform(1.5, 5.0), "noise": rng.uniform(0.8, 4.0),
                      "voronoi": rng.uniform(1.5, 6.0), "brick": rng.uniform(1.0, 3.0),
                      "wave": rng.uniform(0.5, 2.5), "image": rng.uniform(0.4, 1.5)}[kind])
@@ -84,27 +87,28 @@ def texture(rng: random.Random, base: tuple) -> dict:
 
 def material(rng: random.Random, kind: str, tex_p: float = 0.0) -> dict:
     """A Principled BSDF's settings: kind dielectric|metal|glass|emissive (emission strength set later)."""
-    m = dict(kind=kind, base=_rgb(rng), roughness=_r(rng.uniform(0.15, 1.0)),
+    m = dict(kind=kind, base=colour(rng), roughness=_r(rng.uniform(0.15, 1.0)),
              specular=_r(rng.choice((0.5, rng.uniform(0.0, 1.0)))), metallic=0.0, transmission=0.0,
              ior=1.5, coat=0.0, texture=None, emission=None, strength=0.0)
     if kind == "metal":
-        m.update(metallic=1.0, base=rng.choice(METALS) if rng.random() < 0.7 else _rgb(rng, 0.6, 0.5, 0.95),
+        m.update(metallic=1.0, base=rng.choice(METALS) if rng.random() < 0.7 else colour(rng, 0.6, 0.5, 0.95),
                  roughness=_r(rng.choice((rng.uniform(0.0, 0.08), rng.uniform(0.1, 0.5)))))
     elif kind == "glass":
         clear = rng.random() < 0.6
         m.update(transmission=1.0, roughness=_r(0.0 if clear else rng.uniform(0.1, 0.4)), specular=0.5,
-                 ior=_r(rng.uniform(1.4, 1.6)), base=_rgb(rng, 0.4, 0.85, 1.0))
+                 ior=_r(rng.uniform(1.4, 1.6)), base=colour(rng, 0.4, 0.85, 1.0))
     elif kind == "emissive":
-        m.update(emission=_rgb(rng, 0.7, 1.0, 1.0), base=_rgb(rng, 0.3, 0.5, 0.9), roughness=0.5)
+        m.update(emission=colour(rng, 0.7, 1.0, 1.0), base=colour(rng, 0.3, 0.5, 0.9), roughness=0.5)
     else:
         if rng.random() < 0.15:
             m["coat"] = _r(rng.uniform(0.3, 1.0))
         if rng.random() < tex_p:
-            m["texture"] = texture(rng, m["base"])
+            m["texture"] = texture(rng)
     return m
 
 
-def _bsphere(shape: str, s: float) -> float:
+def bsphere(shape: str, s: float) -> float:
+    """Bounding-sphere radius of a unit primitive (spans [-1, 1]) scaled by ``s``; the diffuse rooms' too."""
     return s * {"cube": math.sqrt(3.0), "cone": math.sqrt(2.0), "cylinder": math.sqrt(2.0), "sphere": 1.0,
                 "monkey": 1.49, "plane": math.sqrt(2.0)}[shape]
 
@@ -138,7 +142,7 @@ def _objects(rng, n, cx, cy, spread_x, spread_y, H, size_lo, size_hi, tex_p, nam
             z = sz * (0.984 if shape == "monkey" else 1.0)
         kind = _pick(rng, P_OBJ)
         out.append(dict(name=f"{PREFIX}{name}.{i:02d}.{shape}", shape=shape, location=(_r(x), _r(y), _r(z)),
-                        rotation=rot, scale=(_r(sx), _r(sy), _r(sz)), radius=_r(_bsphere(shape, max(sx, sy, sz))),
+                        rotation=rot, scale=(_r(sx), _r(sy), _r(sz)), radius=_r(bsphere(shape, max(sx, sy, sz))),
                         material=material(rng, kind, tex_p)))
     return out
 
@@ -190,7 +194,7 @@ def _emitters(rng, W, D, H, n):
             rot = (0.0, math.pi / 2, 0.0) if along_x else (math.pi / 2, 0.0, 0.0)
             d = dict(shape="cylinder", location=loc, rotation=rot, scale=(rad, rad, length / 2),
                      area=2 * math.pi * rad * length, side=side)
-            m["emission"] = _rgb(rng, 1.0, 1.0, 1.0) if rng.random() < 0.5 else m["emission"]
+            m["emission"] = colour(rng, 1.0, 1.0, 1.0) if rng.random() < 0.5 else m["emission"]
         d.update(name=nm, kind=kind, material=m,
                  location=tuple(_r(v) for v in d["location"]), scale=tuple(_r(v) for v in d["scale"]),
                  rotation=tuple(_r(v) for v in d["rotation"]))
@@ -218,7 +222,7 @@ def artist_params(seed: int) -> dict:
     for w in WALLS:
         tex_p = P_TEX_FLOOR if w == "floor" else P_TEX_WALL
         m = material(rng, "dielectric", tex_p)
-        m["base"] = _rgb(rng, 0.6, 0.2, 0.85)
+        m["base"] = colour(rng, 0.6, 0.2, 0.85)
         if w == "floor" and rng.random() < 0.45:  # a glossy floor
             m["roughness"], m["specular"] = _r(rng.uniform(0.03, 0.3)), _r(rng.uniform(0.4, 1.0))
         walls[w] = dict(material=m, window=None)
@@ -246,7 +250,7 @@ def artist_params(seed: int) -> dict:
     objects = _objects(rng, rng.randint(3, 9), rng.uniform(-0.15, 0.15) * W, rng.uniform(-0.15, 0.15) * D,
                        0.3 * W, 0.3 * D, H, 0.18, 0.6, P_TEX_OBJ)
     scale = (W * D + W * H + D * H) / 3.0  # as the diffuse rooms: ~ squared room size
-    power = scale * rng.uniform(2.0, 7.0)
+    power = scale * rng.uniform(1.2, 4.0)  # W (lamps) or emitted (emitters); measured: docs/artist_rooms.md
     n_emit = 0 if lighting == "lamps" else rng.randint(1, 3)
     emitters, poles = _emitters(rng, W, D, H, n_emit)
     objects += poles
@@ -255,7 +259,7 @@ def artist_params(seed: int) -> dict:
         o["area"] = _r(4 * math.pi * (o["radius"] / 1.5) ** 2)
     if lighting == "lamps":  # glowing objects are accents there, the lamps light the room
         for o in glowing:
-            o["material"]["strength"] = _r(rng.uniform(1.0, 4.0))
+            o["material"]["strength"] = _r(rng.uniform(0.5, 2.0))
     else:
         _set_emission(emitters + glowing, power * EMISSION_GAIN * (1.0 if lighting == "emission" else 0.5))
     lights = []
@@ -265,7 +269,7 @@ def artist_params(seed: int) -> dict:
         for li in lights:
             li["energy"] = _r(li["energy"] * 0.5)
     target = _centre(objects, H)
-    camera = _room_camera(rng, W, D, H, objects + emitters, target)
+    camera = _room_camera(rng, W, D, H, objects + emitters, target, [li["location"] for li in lights])
     return dict(seed=int(seed), mode="artist", kind=kind, lighting=lighting, size=(W, D, H), walls=walls,
                 missing=missing, world=world, sun=sun, objects=objects, emitters=emitters, lights=lights,
                 camera=camera)
@@ -273,7 +277,7 @@ def artist_params(seed: int) -> dict:
 
 def _sun(rng) -> dict:
     return dict(elevation=_r(math.radians(rng.uniform(12.0, 65.0))), azimuth=_r(rng.uniform(0, math.tau)),
-                energy=_r(rng.uniform(1.5, 4.0)), angle=_r(math.radians(rng.uniform(0.5, 4.0))),
+                energy=_r(rng.uniform(1.0, 3.0)), angle=_r(math.radians(rng.uniform(0.5, 4.0))),
                 colour=tuple(_r(c) for c in colorsys.hsv_to_rgb(rng.uniform(0.05, 0.12), rng.uniform(0.0, 0.3), 1.0)))
 
 
@@ -282,13 +286,13 @@ def _world(rng, sun) -> dict:
     the sky's light on a horizontal surface (W/m^2), so that any sky lights a scene alike."""
     elev = sun["elevation"] if sun else _r(math.radians(rng.uniform(10.0, 60.0)))
     az = sun["azimuth"] if sun else _r(rng.uniform(0, math.tau))
-    irr = _r(rng.uniform(0.6, 2.0))
+    irr = _r(rng.uniform(0.5, 1.6))
     if rng.random() < 0.6:
         t = rng.choice(SKIES)
         return dict(type="sky", sky=t, elevation=elev, azimuth=az, irradiance=irr,
                     strength=_r(irr / (math.pi * SKY_RADIANCE[t])))
-    return dict(type="gradient", zenith=_rgb(rng, 0.6, 0.4, 1.0), horizon=_rgb(rng, 0.35, 0.7, 1.0),
-                ground=_rgb(rng, 0.4, 0.1, 0.4), elevation=elev, azimuth=az, irradiance=irr,
+    return dict(type="gradient", zenith=colour(rng, 0.6, 0.4, 1.0), horizon=colour(rng, 0.35, 0.7, 1.0),
+                ground=colour(rng, 0.4, 0.1, 0.4), elevation=elev, azimuth=az, irradiance=irr,
                 strength=_r(irr / math.pi / 0.8), disc=_r(rng.uniform(50.0, 400.0)),
                 disc_size=_r(math.radians(rng.uniform(0.5, 3.0))))
 
@@ -306,7 +310,7 @@ def _lamps(rng, W, D, H, occupied, power) -> list:
                 break
         e = power / n ** 0.5
         d = dict(name=f"{PREFIX}light.{i}.{t.lower()}", type=t, location=tuple(_r(v) for v in p),
-                 colour=_rgb(rng, 0.45, 1.0, 1.0), energy=_r(e), radius=_r(rng.uniform(0.05, 0.4)))
+                 colour=colour(rng, 0.45, 1.0, 1.0), energy=_r(e), radius=_r(rng.uniform(0.05, 0.4)))
         aim = (rng.uniform(-0.3, 0.3) * W, rng.uniform(-0.3, 0.3) * D, 0.0)
         if t == "SPOT":
             d.update(spot_size=_r(math.radians(rng.uniform(60.0, 120.0))), spot_blend=_r(rng.uniform(0.05, 0.5)),
@@ -337,11 +341,14 @@ def _camera(rng, p, target, lens_lo=18.0, lens_hi=32.0) -> dict:
                 lens=_r(rng.uniform(lens_lo, lens_hi)))
 
 
-def _room_camera(rng, W, D, H, occupied, target) -> dict:
-    for _ in range(500):
+def _room_camera(rng, W, D, H, occupied, target, lamps) -> dict:
+    """Inside the room, outside every object, 1.5 m from what it looks at and (in the first 300 tries) 1.2 m
+    from every lamp (a lamp beside the camera blows out the frame)."""
+    for k in range(500):
         g = MIN_WALL_GAP
         p = (rng.uniform(-W / 2 + g, W / 2 - g), rng.uniform(-D / 2 + g, D / 2 - g), rng.uniform(0.5, min(2.0, H - g)))
-        if all(_dist(p, o["location"]) > o["radius"] + CAMERA_CLEARANCE for o in occupied) and _dist(p, target) > 1.5:
+        if (all(_dist(p, o["location"]) > o["radius"] + CAMERA_CLEARANCE for o in occupied) and _dist(p, target) > 1.5
+                and (k >= 300 or all(_dist(p, q) > LAMP_CLEARANCE for q in lamps))):
             break
     return _camera(rng, p, target)
 
@@ -350,7 +357,7 @@ def _exterior(rng, seed: int) -> dict:
     """Ground, 3-10 box buildings around a plaza, 2-7 primitives on it, a human-height camera; sun and sky."""
     G = 80.0  # ground plane size (m)
     ground = material(rng, "dielectric", 0.6)
-    ground["base"] = _rgb(rng, 0.35, 0.15, 0.55)
+    ground["base"] = colour(rng, 0.35, 0.15, 0.55)
     buildings = []
     for i in range(rng.randint(3, 10)):
         sx, sy, sz = rng.uniform(1.5, 6.0), rng.uniform(1.5, 6.0), rng.uniform(1.5, 10.0)
@@ -358,7 +365,7 @@ def _exterior(rng, seed: int) -> dict:
         ang, r = rng.uniform(0, math.tau), rng.uniform(PLAZA, 25.0) + math.hypot(sx, sy)
         m = material(rng, "metal" if rng.random() < 0.1 else "dielectric", 0.35)
         if m["kind"] == "dielectric":
-            m["base"] = _rgb(rng, 0.5, 0.2, 0.8)
+            m["base"] = colour(rng, 0.5, 0.2, 0.8)
         buildings.append(dict(name=f"{PREFIX}bldg.{i:02d}.cube", shape="cube",
                               location=(_r(r * math.cos(ang)), _r(r * math.sin(ang)), _r(sz)),
                               rotation=(0.0, 0.0, _r(rng.uniform(0, math.pi))), scale=(_r(sx), _r(sy), _r(sz)),
@@ -367,14 +374,15 @@ def _exterior(rng, seed: int) -> dict:
     sun = _sun(rng) if rng.random() < P_SUN_EXTERIOR else None
     world = _world(rng, sun)
     if sun is None:  # overcast: a brighter sky does the sun's work
-        world["irradiance"] = _r(world["irradiance"] * 2.0)
-        world["strength"] = _r(world["strength"] * 2.0)
+        world["irradiance"] = _r(world["irradiance"] * OVERCAST)
+        world["strength"] = _r(world["strength"] * OVERCAST)
     glowing = [o for o in objects if o["material"]["kind"] == "emissive"]
     for o in glowing:
         o["area"] = _r(4 * math.pi * (o["radius"] / 1.5) ** 2)
         o["material"]["strength"] = _r(rng.uniform(2.0, 8.0))
     occupied = objects  # buildings stand outside the plaza
-    target = (rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(0.3, 1.2))
+    # nearly level: the upper part of the frame shows buildings and sky
+    target = (rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(0.9, 2.0))
     for _ in range(500):
         a, r = rng.uniform(0, math.tau), rng.uniform(3.0, 7.0)
         p = (r * math.cos(a), r * math.sin(a), rng.uniform(1.5, 1.8))

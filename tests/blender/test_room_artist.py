@@ -283,3 +283,20 @@ def test_randomize_room_operator_and_panel_take_the_mode():
     """
     out = json.loads(run_py(code).stdout.split("JSON", 1)[1])
     assert out == ["artist", "artist", True, None, "diffuse"]
+
+
+def test_randomize_save_artist_keeps_generated_images(factory_bpy, tmp_path):
+    bpy = factory_bpy
+    seed = _seed(lambda p: any(m["texture"] and m["texture"]["type"] == "image" for m in _materials(p)))
+    f = tmp_path / "artist.blend"
+    run_cli("randomize", "--seed", str(seed), "--mode", "artist", "--save", str(f), "--json")
+    bpy.ops.wm.open_mainfile(filepath=str(f), load_ui=False)
+    opened = json.loads(json.dumps(room.describe_scene(bpy.context.scene)))
+    ims = [i for i in bpy.data.images if i.get("ssgi_room")]
+    assert ims and all(i.packed_file is not None for i in ims)
+    import numpy as np
+    px = np.asarray(ims[0].pixels[:]).reshape(-1, 4)[:, :3]
+    assert px.std() > 0.02 and px.max() > 0.05  # the tiles came back from the file, not a blank image
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    room.build_room(seed, bpy.context.scene, mode="artist")
+    assert opened == json.loads(json.dumps(room.describe_scene(bpy.context.scene)))
