@@ -25,10 +25,13 @@ from ...model import files
 from . import passes
 
 # Chosen by benchmarks/direct_light.py (docs/direct_light.md): the cheapest setting close to Cycles.
+# 4 TAA samples, no jitter, 4 shadow rays (EEVEE's maximum) of 12 steps: +5.5 dB over the hard input against
+# Cycles' soft direct on 6 rooms, 2 dB under 16 jittered samples at a third of the time; jitter banded the
+# penumbrae at 4 samples and lost up to 20 % of the light in one room.
 SOFT_SAMPLES = 4
 SOFT_JITTER = False
-SOFT_RAY_COUNT = 1
-SOFT_STEP_COUNT = 6
+SOFT_RAY_COUNT = 4
+SOFT_STEP_COUNT = 12
 EMITTER_SAMPLES = 4
 
 
