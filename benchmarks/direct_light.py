@@ -40,8 +40,10 @@ ap.add_argument("--size", type=parse_size, default=(240, 135))
 ap.add_argument("--ref-spp", type=int, default=1024, help="Cycles samples of the reference (default 1024)")
 ap.add_argument("--settings", nargs="*", help="soft: only these labels (and 'hard')")
 ap.add_argument("--repeat", type=int, default=3, help="timing: renders per setting, interleaved (median)")
+ap.add_argument("--tilt", type=float, default=0.0, help="emission rooms: camera pitched up by this (radians)")
+ap.add_argument("--mixed", action="store_true", help="emission rooms keep their lamps too")
 ap.add_argument("--reuse", action="store_true", help="soft: take the Cycles reference (and images) from --out's npz")
-ap.add_argument("--png", type=int, help="png: the room (its soft_/emit_ npz in --out)")
+ap.add_argument("--png", help="png: the room (its soft_/emit_ npz in --out: 1, -2, -2_tilt)")
 ap.add_argument("--png-keys", default="hard,s4_nojit_r4_st12,cycles", help="png: images left to right")
 ap.add_argument("--png-kind", default="soft", choices=("soft", "emit"))
 ap.add_argument("--png-name", type=Path, help="png: the file to write")
@@ -74,7 +76,7 @@ def scenes():
     scene = _bootstrap.empty_scene()
     for r in a.rooms:
         if r < 0:  # -SEED: closed room SEED lit only by an emissive ceiling panel
-            dl.emission_panel_room(-r, scene)
+            dl.emission_panel_room(-r, scene, camera_tilt=a.tilt, keep_lamps=a.mixed)
         else:
             room.build_room(r, scene)
         passes.set_resolution(scene, *a.size)
@@ -137,12 +139,17 @@ def emit_bench():
         ref, t_ref = timed(dl.render_cycles_direct, scene, a.ref_spp, seed=1)
         ref2, _ = timed(dl.render_cycles_direct, scene, a.ref_spp, seed=2)
         imgs = {"cycles": ref}
+        if r < 0 and (a.tilt or a.mixed):
+            r = f"{r}{'_tilt' if a.tilt else ''}{'_mixed' if a.mixed else ''}"
         emit(dict(room=r, setting="cycles_seed2", s=t_ref, psnr=lit_psnr(ref2, ref), mean=round(float(ref.mean()), 4)))
         runs = [("eevee_hard", lambda: passes.render_gbuffer(scene, ("direct",), keep_sky=False)["direct"][..., :3]),
                 ("eevee_soft", lambda: dl.render_soft_direct(scene))]
         for spp in (1, 2, 4):
-            runs.append((f"cycles_{spp}spp_raw", lambda spp=spp: dl.render_emitter_direct(scene, spp, seed=3, denoise=False)))
-            runs.append((f"cycles_{spp}spp_oidn", lambda spp=spp: dl.render_emitter_direct(scene, spp, seed=3)))
+            runs.append((f"cycles_{spp}spp_raw", lambda spp=spp: dl.render_emitter_direct(scene, spp, 3, False, lamps=True)))
+            runs.append((f"cycles_{spp}spp_oidn", lambda spp=spp: dl.render_emitter_direct(scene, spp, 3, lamps=True)))
+        for spp in (1, 4):  # EEVEE's soft lamps + Cycles' denoised emitters (lamps hidden)
+            runs.append((f"eevee_soft+emitters_{spp}spp_oidn", lambda spp=spp: dl.render_soft_direct(scene)
+                         + dl.render_emitter_direct(scene, spp, seed=3)))
         runs += [("eevee_raytraced_s1", lambda: eevee_raytraced(scene, 1)),
                  ("eevee_raytraced_s4", lambda: eevee_raytraced(scene, 4)),
                  ("emission_pass", lambda: emission_pass(scene))]
@@ -156,7 +163,7 @@ def emit_bench():
 
 def table():
     rows = [json.loads(line) for line in (a.out / "results.jsonl").open()]
-    rooms = sorted({r["room"] for r in rows}, key=lambda x: (x < 0, abs(x)))
+    rooms = sorted({r["room"] for r in rows}, key=str)
     labels = list(dict.fromkeys(r["setting"] for r in rows))
     last = {(r["room"], r["setting"]): r for r in rows}  # a rerun of a setting replaces the earlier line
     print("| setting | " + " | ".join(f"room {r}" for r in rooms) + " | pooled PSNR | pooled lit-pixel PSNR | median s |")

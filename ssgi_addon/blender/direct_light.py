@@ -127,10 +127,14 @@ def _read_composite(path) -> np.ndarray:
 
 
 def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, denoise: bool = True,
-                          point_sampled: bool = True) -> np.ndarray:
-    """Diffuse direct light from lamps AND emissive meshes: Cycles' Diffuse Direct (real light sizes, world
-    black, no bounces) at ``samples`` spp, OIDN-denoised through the compositor's Denoise node when
-    ``denoise``. HxWx3 float32, top row first."""
+                          point_sampled: bool = True, lamps: bool = False) -> np.ndarray:
+    """Diffuse direct light from emissive meshes (and lamp objects too with ``lamps``): Cycles' Diffuse Direct
+    (real light sizes, world black, no bounces) at ``samples`` spp, OIDN-denoised through the compositor's
+    Denoise node when ``denoise``. Without ``lamps`` the lamp objects are hidden: the result adds to
+    ``render_soft_direct`` (which has the lamps and no emitters). HxWx3 float32, top row first."""
+    if not lamps:
+        with passes._hidden_from_render(scene, ("LIGHT",)):
+            return render_emitter_direct(scene, samples, seed, denoise, point_sampled, lamps=True)
     if not denoise:
         return render_cycles_direct(scene, samples, seed, point_sampled=point_sampled)
     passes._check_camera(scene)
@@ -166,11 +170,13 @@ def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, 
 PANEL_STRENGTH = 40.0  # Emission strength of emission_panel_room's panel (W/m^2-ish): Cycles' mean ~0.1-0.6
 
 
-def emission_panel_room(seed: int, scene, size=(1.2, 0.8), strength: float = PANEL_STRENGTH):
+def emission_panel_room(seed: int, scene, size=(1.2, 0.8), strength: float = PANEL_STRENGTH, camera_tilt: float = 0.0,
+                        keep_lamps: bool = False):
     """Random closed room ``seed`` (room.build_room; ValueError for a seed with an open side) lit ONLY by an emissive ceiling
     panel: its lamps are removed and a ``size`` (m) plane with an Emission shader of ``strength`` hangs 1 cm
-    under the ceiling, facing down. The measurement and test scene of emitter light (everything carries
-    ``ssgi_room``, so room.clear_room removes it)."""
+    under the ceiling, facing down; ``camera_tilt`` (radians) pitches the camera up (0.4 puts room 2's panel
+    on screen); ``keep_lamps`` keeps the room's lamps too (a mixed-light room). The measurement and test scene of emitter light (everything carries ``ssgi_room``, so
+    room.clear_room removes it)."""
     import math
 
     from . import room
@@ -178,7 +184,7 @@ def emission_panel_room(seed: int, scene, size=(1.2, 0.8), strength: float = PAN
     if room.room_params(seed)["open_side"]:
         raise ValueError(f"room {seed} has an open side; emission_panel_room needs a closed room")
     room.build_room(seed, scene)
-    lamps = [o for o in scene.objects if o.type == "LIGHT"]
+    lamps = [o for o in scene.objects if o.type == "LIGHT" and not keep_lamps]
     data = [o.data for o in lamps]
     bpy.data.batch_remove(lamps)
     bpy.data.batch_remove([d for d in data if d.users == 0])
@@ -197,4 +203,5 @@ def emission_panel_room(seed: int, scene, size=(1.2, 0.8), strength: float = PAN
     me.materials.append(m)
     o = room._link(scene, bpy.data.objects.new(f"{room.PREFIX}emission_panel", me))
     o.location, o.rotation_euler, o.scale = (0.0, 0.0, H - 0.01), (math.pi, 0.0, 0.0), (size[0] / 2, size[1] / 2, 1.0)
+    scene.camera.rotation_euler.x += camera_tilt
     return scene
