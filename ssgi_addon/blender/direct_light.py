@@ -1,0 +1,210 @@
+"""Direct light as a network input beyond the hard-shadow G-buffer (issue 14, items 2 and 4).
+
+- ``render_soft_direct(scene, samples=...)``: EEVEE's Diffuse Direct pass with the lights at their REAL size
+  (soft shadows), in the same direct-only set-up as ``passes.render_gbuffer`` (world lights nothing, light
+  probes hidden, no ray tracing / fast GI, light threshold 0), pixels point-sampled at their centres like the
+  1-sample G-buffer (EEVEE's TAA then spends its samples on the shadows, not on anti-aliasing).
+- ``render_cycles_direct(scene, samples, ...)``: Cycles' Diffuse Direct pass with real light sizes, a black
+  world, point-sampled pixels and no bounces (direct light only: the same pass, cheaper); the reference for
+  both of the above, and (with ``denoise``) the emitter-aware direct input.
+- ``render_emitter_direct(scene, ...)``: the direct light that emissive meshes cast (EEVEE's Diffuse Direct
+  ignores them): Cycles' Diffuse Direct with the lamp objects hidden, at a few samples, denoised by OIDN in the
+  compositor (Denoise node with the Normal pass as guide). Added to ``render_soft_direct`` it is the direct
+  light of lamps and emitters (``lamps=True`` gives Cycles' own lamps too, noisier than EEVEE's).
+- ``emission_panel_room(seed, scene)``: a closed random room lit only by an emissive ceiling panel (measurements
+  and tests). The measurements behind the defaults: docs/direct_light.md.
+
+Every function returns HxWx3 float32, top row first, and restores the scene's settings it overrides.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+
+import bpy
+import numpy as np
+
+from ...model import files
+from . import passes
+
+# Chosen by benchmarks/direct_light.py (docs/direct_light.md): the cheapest setting close to Cycles.
+# 4 TAA samples, no jitter, 4 shadow rays (EEVEE's maximum) of 12 steps: +5.5 dB over the hard input against
+# Cycles' soft direct on 6 rooms, 2 dB under 16 jittered samples at a third of the time; jitter banded the
+# penumbrae at 4 samples and lost up to 20 % of the light in one room.
+SOFT_SAMPLES = 4
+SOFT_JITTER = False
+SOFT_RAY_COUNT = 4
+SOFT_STEP_COUNT = 12
+EMITTER_SAMPLES = 4  # + OIDN: 42.2 / 34.8 dB on two panel rooms (1 spp: 37.8 / 32.7), ~0.3-0.9 s at 240x135
+
+
+@contextlib.contextmanager
+def _overrides(items):
+    """Set each (owner, attribute, value) of ``items``; restore the old values on exit."""
+    saved = []
+    try:
+        for owner, attr, value in items:
+            saved.append((owner, attr, getattr(owner, attr)))
+            setattr(owner, attr, value)
+        yield
+    finally:
+        for owner, attr, value in reversed(saved):
+            setattr(owner, attr, value)
+
+
+def _lights(scene) -> list:
+    return list({o.data for o in scene.objects if o.type == "LIGHT"})
+
+
+def render_soft_direct(scene, samples: int = SOFT_SAMPLES, jitter: bool = SOFT_JITTER,
+                       ray_count: int = SOFT_RAY_COUNT, step_count: int = SOFT_STEP_COUNT,
+                       point_sampled: bool = True) -> np.ndarray:
+    """EEVEE's Diffuse Direct with the lights at their real size (soft shadows): HxWx3 float32, top row first.
+
+    ``samples``: EEVEE TAA samples (the shadows soften over them); ``jitter``: each light's
+    ``use_shadow_jitter`` (shadow maps re-rendered from points on the light every sample); ``ray_count`` /
+    ``step_count``: ``scene.eevee.shadow_ray_count`` / ``shadow_step_count`` (shadow-map ray tracing that fakes
+    the penumbra within one sample). ``point_sampled``: pixel filter ~0, so that the pass lines up with the
+    1-sample G-buffer groups."""
+    passes.configure_gbuffer(scene, ("direct",), samples=samples)
+    ee = scene.eevee
+    items = [(ee, "shadow_ray_count", int(ray_count)), (ee, "shadow_step_count", int(step_count))]
+    items += [(li, "use_shadow_jitter", bool(jitter)) for li in _lights(scene)]
+    if point_sampled:
+        items.append((scene.render, "filter_size", 0.0))
+    with _overrides(items), passes._direct_only_world(scene):
+        out = passes._render(scene)
+    return passes._group(out, "direct")[..., :3]
+
+
+def _configure_cycles_direct(scene, samples: int, seed: int):
+    passes.configure_cycles(scene, samples, seed)
+    c = scene.cycles
+    # direct light only: bounces 0 (the Diffuse Direct pass is the same; measured in docs/direct_light.md)
+    return [(c, "max_bounces", 0), (c, "diffuse_bounces", 0), (c, "glossy_bounces", 0),
+            (c, "transmission_bounces", 0), (c, "volume_bounces", 0), (c, "transparent_max_bounces", 0)]
+
+
+def render_cycles_direct(scene, samples: int, seed: int = 0, hard: bool = False,
+                         point_sampled: bool = True) -> np.ndarray:
+    """Cycles' Diffuse Direct pass (lamps and emissive meshes), real light sizes unless ``hard``, world black,
+    no bounces: HxWx3 float32, top row first."""
+    items = _configure_cycles_direct(scene, samples, seed)
+    scene.view_layers[0].use_pass_diffuse_direct = True
+    with contextlib.ExitStack() as ctx:
+        ctx.enter_context(_overrides(items))
+        ctx.enter_context(passes._direct_only_world(scene))
+        if hard:
+            ctx.enter_context(passes.hard_lights(scene))
+        if point_sampled:
+            ctx.enter_context(passes._point_sampled(scene))
+        out = passes._render(scene)
+    return passes._group(out, "direct")[..., :3]
+
+
+def _denoise_tree(scene, name: str):
+    """A compositor tree: Render Layers' Diffuse Direct -> Denoise (Normal as guide, no albedo: the pass holds
+    light, not colour) -> the group output."""
+    tree = bpy.data.node_groups.new(name, "CompositorNodeTree")
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    rl = tree.nodes.new("CompositorNodeRLayers")
+    rl.scene = scene  # its outputs follow the scene's enabled passes (enable them first)
+    dn = tree.nodes.new("CompositorNodeDenoise")
+    out = tree.nodes.new("NodeGroupOutput")
+    tree.links.new(rl.outputs["Diffuse Direct"], dn.inputs["Image"])
+    tree.links.new(rl.outputs["Normal"], dn.inputs["Normal"])
+    tree.links.new(dn.outputs["Image"], out.inputs[0])
+    return tree
+
+
+def _read_composite(path) -> np.ndarray:
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        for part in f.parts:
+            pname = part.name() if callable(part.name) else part.name
+            if pname and pname.startswith("Composite"):
+                ch = {k.rpartition(".")[2]: v.pixels for k, v in part.channels.items()}
+                return np.stack([np.asarray(ch[c], np.float32) for c in "RGB"], axis=-1)
+    raise RuntimeError(f"{path}: the render has no Composite part")
+
+
+def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, denoise: bool = True,
+                          point_sampled: bool = True, lamps: bool = False) -> np.ndarray:
+    """Diffuse direct light from emissive meshes (and lamp objects too with ``lamps``): Cycles' Diffuse Direct
+    (real light sizes, world black, no bounces) at ``samples`` spp, OIDN-denoised through the compositor's
+    Denoise node when ``denoise``. Without ``lamps`` the lamp objects are hidden: the result adds to
+    ``render_soft_direct`` (which has the lamps and no emitters). HxWx3 float32, top row first."""
+    if not lamps:
+        with passes._hidden_from_render(scene, ("LIGHT",)):
+            return render_emitter_direct(scene, samples, seed, denoise, point_sampled, lamps=True)
+    if not denoise:
+        return render_cycles_direct(scene, samples, seed, point_sampled=point_sampled)
+    passes._check_camera(scene)
+    items = _configure_cycles_direct(scene, samples, seed)
+    vl = scene.view_layers[0]
+    items += [(vl, "use_pass_diffuse_direct", True), (vl, "use_pass_normal", True)]
+    r = scene.render
+    ims = r.image_settings
+    path = tree = None
+    try:
+        with contextlib.ExitStack() as ctx:
+            ctx.enter_context(_overrides(items))
+            tree = _denoise_tree(scene, "ssgi.denoise_direct")
+            ctx.enter_context(_overrides([(scene, "compositing_node_group", tree)]))
+            ctx.enter_context(passes._direct_only_world(scene))
+            if point_sampled:
+                ctx.enter_context(passes._point_sampled(scene))
+            ctx.enter_context(passes._exr_output(scene))
+            r.use_compositing = True  # _exr_output turns it off and restores it
+            bpy.ops.render.render(scene=scene.name, layer=vl.name)
+            path = str(files.scratch("ssgi-render", ".exr"))
+            ims.media_type = "MULTI_LAYER_IMAGE"
+            bpy.data.images["Render Result"].save_render(path, scene=scene)
+            return _read_composite(path)
+    finally:
+        if tree is not None:
+            bpy.data.node_groups.remove(tree)
+        if path is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+
+
+PANEL_STRENGTH = 40.0  # emission_panel_room's panel: Cycles' Diffuse Direct mean 0.19 / 0.13 in rooms 2 / 3 (240x135)
+
+
+def emission_panel_room(seed: int, scene, size=(1.2, 0.8), strength: float = PANEL_STRENGTH, camera_tilt: float = 0.0,
+                        keep_lamps: bool = False):
+    """Random closed room ``seed`` (room.build_room; ValueError for a seed with an open side) lit ONLY by an emissive ceiling
+    panel: its lamps are removed and a ``size`` (m) plane with an Emission shader of ``strength`` hangs 1 cm
+    under the ceiling, facing down; ``camera_tilt`` (radians) pitches the camera up (0.4 puts room 2's panel
+    on screen); ``keep_lamps`` keeps the room's lamps too (a mixed-light room). The measurement and test scene of emitter light (everything carries ``ssgi_room``, so
+    room.clear_room removes it)."""
+    import math
+
+    from . import room
+
+    if room.room_params(seed)["open_side"]:
+        raise ValueError(f"room {seed} has an open side; emission_panel_room needs a closed room")
+    room.build_room(seed, scene)
+    lamps = [o for o in scene.objects if o.type == "LIGHT" and not keep_lamps]
+    data = [o.data for o in lamps]
+    bpy.data.batch_remove(lamps)
+    bpy.data.batch_remove([d for d in data if d.users == 0])
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    W, D, H = room.room_params(seed)["size"]
+    m = bpy.data.materials.new(f"{room.PREFIX}emission_panel")
+    m["ssgi_room"] = True
+    nt = m.node_tree
+    nt.nodes.clear()
+    em = nt.nodes.new("ShaderNodeEmission")
+    em.inputs["Color"].default_value = (1.0, 0.95, 0.85, 1.0)
+    em.inputs["Strength"].default_value = float(strength)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(em.outputs["Emission"], out.inputs["Surface"])
+    me = room._mesh("plane", f"{room.PREFIX}emission_panel")
+    me.materials.append(m)
+    o = room._link(scene, bpy.data.objects.new(f"{room.PREFIX}emission_panel", me))
+    o.location, o.rotation_euler, o.scale = (0.0, 0.0, H - 0.01), (math.pi, 0.0, 0.0), (size[0] / 2, size[1] / 2, 1.0)
+    scene.camera.rotation_euler.x += camera_tilt
+    return scene
