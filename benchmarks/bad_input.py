@@ -249,6 +249,7 @@ def measure(case: str, out_dir: Path, model: str, size=(64, 36), samples: int = 
     direct_only = np.maximum(g["albedo"] * g["direct"] + g["rest"], 0.0)
     ys, xs = object_box(sc, obj)
     hole = beauty[..., 3] < 0.5  # pixels EEVEE's own render leaves transparent (holdouts, transparent film)
+    zero = beauty[..., 3] <= 0.0  # and those it leaves fully transparent
     res.update({
         "frame_rgb": _m(out[..., :3]), "frame_alpha": _m(out[..., 3]),
         "beauty_rgb": _m(beauty[..., :3]), "beauty_alpha": _m(beauty[..., 3]),
@@ -260,6 +261,9 @@ def measure(case: str, out_dir: Path, model: str, size=(64, 36), samples: int = 
         "holes_px": int(hole.sum()), "holes_frame_rgb": _m(out[hole, :3]) if hole.any() else None,
         "holes_albedo": _m(g["albedo"][hole]) if hole.any() else None,
         "holes_pred_rgb": _m(s.results[0]["prediction"][hole]) if hole.any() else None,
+        "alpha0_px": int(zero.sum()), "alpha0_frame_rgb_max": round(float(out[zero, :3].max()), 4) if zero.any() else None,
+        "alpha0_albedo_max": round(float(g["albedo"][zero].max()), 4) if zero.any() else None,
+        "alpha0_depth_min": round(float(g["depth"][zero].min()), 3) if zero.any() else None,
         "rest_min": round(float(g["rest"].min()), 4),
         "rest_neg_frac": round(float((g["rest"].min(axis=-1) < -0.02).mean()), 4),
     })

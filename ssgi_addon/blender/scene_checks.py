@@ -115,9 +115,9 @@ def _check_materials(scene, objs, target, found):
 
 
 def _holdout(code, what) -> Finding:
-    return Finding(code, f"{what}: the holdout's alpha is right, but its pixels (alpha 0) keep the predicted diffuse "
-                   f"colour, which adds light if the frame is laid over a background; multiply the frame by its "
-                   f"alpha before laying it over one")
+    return Finding(code, f"{what}: its pixels come out transparent as in EEVEE, but SSGI's network sees it as a black "
+                   f"surface (Diffuse Color 0 there), so the light it bounces onto its surroundings is missing from "
+                   f"the prediction; turn Holdout off if that light matters")
 
 
 def check_scene(scene, spec, target: str = ch.DIFFUSE_TARGET) -> list[Finding]:

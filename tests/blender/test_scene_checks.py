@@ -95,7 +95,7 @@ def test_volumes(checked):
 
 def test_holdouts(checked):
     res, _ = checked
-    _warned(res, "holdout_object", ["'tiny_metal'", "Holdout", "alpha 0"])
+    _warned(res, "holdout_object", ["'tiny_metal'", "Holdout", "black surface"])
     _warned(res, "holdout_collection", ["'holdout_coll'", "view layer 'ViewLayer'"])
     _warned(res, "holdout_shader", ["material 'tiny_glossy_red' on 'tiny_glossy'", "Holdout shader"])
 
