@@ -103,7 +103,9 @@ class SSGI_OT_render(JobSteps, bpy.types.Operator):
         n = len(summary["frames"])
         what = "cancelled after" if summary["cancelled"] else "rendered"
         files = summary["files"]
-        return f"SSGI {what} {n} frame(s)" + (f"; last: {files[-1]}" if files else "")
+        warn = summary.get("warnings") or []
+        return (f"SSGI {what} {n} frame(s)" + (f"; last: {files[-1]}" if files else "")
+                + (f"; {len(warn)} warning(s): " + " | ".join(warn) if warn else ""))
 
     def job_finished(self, context, job):
         if job.result and not job.result["cancelled"]:

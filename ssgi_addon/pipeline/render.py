@@ -116,7 +116,7 @@ class RenderSession:
 
     def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
                  samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
-                 predictor=None):
+                 predictor=None, checks: bool = True):
         self.scene = scene
         self.frames = list(frames) if frames is not None else [scene.frame_current]
         if not self.frames:
@@ -145,6 +145,17 @@ class RenderSession:
         # settings) for a diffuse-part model, EEVEE's Combined for a whole-image model
         from ...model.infer.compose import needs
         self.target = self.predictor.target
+        # what in the scene the SSGI path cannot handle (blender/scene_checks.py): fatal -> refused now;
+        # ``checks=False`` only for measuring what a refused setup would render (benchmarks/bad_input.py)
+        from ..blender.scene_checks import check_scene, node_label
+        findings = check_scene(scene, self.spec, self.target) if checks else []
+        fatal = [f for f in findings if f.fatal]
+        if fatal:
+            raise UserError(fatal[0].message + (f" (and {len(fatal) - 1} more problem(s))" if len(fatal) > 1 else ""))
+        self.warnings = [f.message for f in findings]
+        self.label = node_label(findings)
+        for w in self.warnings:
+            log(f"warning: {w}")
         self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal", "eevee")
                                           + needs(self.target)))
         self.out = out
@@ -188,7 +199,7 @@ class RenderSession:
                 scene.render.use_sequencer = False
                 ssgi_node.set_prediction(rgb, scene, frame, str(self.model_path))
                 for n in self.nodes:
-                    n.label = ssgi_node.NODE_LABEL
+                    n.label = self.label
                 with standins(scene, exr):
                     bpy.ops.render.render(scene=scene.name)
             info["t_composite"] = time.perf_counter() - t0
@@ -249,7 +260,7 @@ class RenderSession:
         res = [{k: v for k, v in r.items() if k not in ("groups", "prediction")} for r in self.results]
         return {"scene": self.scene.name, "model": str(self.model_path), "inputs": ch.format_spec(self.spec),
                 "frames": [r["frame"] for r in res], "files": [r["path"] for r in res if "path" in r],
-                "cancelled": self.cancelled, "per_frame": res}
+                "cancelled": self.cancelled, "warnings": list(self.warnings), "per_frame": res}
 
 
 # --- the stage (cli.py render) ----------------------------------------------------------------------------
