@@ -44,7 +44,7 @@ IDENTITY_SETTINGS = ("kind", "size", "ref_samples", "ref_target_db", "denoise", 
 
 def settings(kind: str, size, ref_samples: int, denoise: bool, eevee_samples: int, *, diffuse_bounces: int,
              eevee: dict, ref_target_db: float | None = None, first_seed: int | None = None, scenes=None, frames=None,
-             half: bool = True) -> dict:
+             half: bool = True, room_mode: str = "diffuse") -> dict:
     """The ``settings`` table of a baked dataset's manifest (the schema: module doc). ``eevee``: the G-buffer
     renderer's settings as the baker applies them (written as they are); ``kind`` "rooms" (with ``first_seed``)
     or "scenes" (with ``scenes`` and ``frames``)."""
@@ -57,6 +57,8 @@ def settings(kind: str, size, ref_samples: int, denoise: bool, eevee_samples: in
          "eevee": dict(eevee)}
     if first_seed is not None:
         s["first_seed"] = int(first_seed)
+    if room_mode != "diffuse":  # a folder of the seed's diffuse rooms records none (as before the modes existed)
+        s["room_mode"] = str(room_mode)
     if scenes is not None:
         s["scenes"] = [str(x) for x in scenes]
         s["frames"] = frames

@@ -19,12 +19,10 @@ Every function returns HxWx3 float32, top row first, and restores the scene's se
 from __future__ import annotations
 
 import contextlib
-import os
 
 import bpy
 import numpy as np
 
-from ...model import files
 from . import passes
 
 # Chosen by benchmarks/direct_light.py (docs/direct_light.md): the cheapest setting close to Cycles.
@@ -117,18 +115,6 @@ def _denoise_tree(scene, name: str):
     return tree
 
 
-def _read_composite(path) -> np.ndarray:
-    import OpenEXR
-
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        for part in f.parts:
-            pname = part.name() if callable(part.name) else part.name
-            if pname and pname.startswith("Composite"):
-                ch = {k.rpartition(".")[2]: v.pixels for k, v in part.channels.items()}
-                return np.stack([np.asarray(ch[c], np.float32) for c in "RGB"], axis=-1)
-    raise RuntimeError(f"{path}: the render has no Composite part")
-
-
 def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, denoise: bool = True,
                           point_sampled: bool = True, lamps: bool = False) -> np.ndarray:
     """Diffuse direct light from emissive meshes (and lamp objects too with ``lamps``): Cycles' Diffuse Direct
@@ -144,9 +130,7 @@ def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, 
     items = _configure_cycles_direct(scene, samples, seed)
     vl = scene.view_layers[0]
     items += [(vl, "use_pass_diffuse_direct", True), (vl, "use_pass_normal", True)]
-    r = scene.render
-    ims = r.image_settings
-    path = tree = None
+    tree = None
     try:
         with contextlib.ExitStack() as ctx:
             ctx.enter_context(_overrides(items))
@@ -155,19 +139,54 @@ def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, 
             ctx.enter_context(passes._direct_only_world(scene))
             if point_sampled:
                 ctx.enter_context(passes._point_sampled(scene))
-            ctx.enter_context(passes._exr_output(scene))
-            r.use_compositing = True  # _exr_output turns it off and restores it
-            bpy.ops.render.render(scene=scene.name, layer=vl.name)
-            path = str(files.scratch("ssgi-render", ".exr"))
-            ims.media_type = "MULTI_LAYER_IMAGE"
-            bpy.data.images["Render Result"].save_render(path, scene=scene)
-            return _read_composite(path)
+            out = passes._render(scene, composite=True)
+        return passes._rgb(out, passes.COMPOSITE_LAYER)
     finally:
         if tree is not None:
             bpy.data.node_groups.remove(tree)
-        if path is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(path)
+
+
+def _lit_input(sock, colour: bool = False) -> bool:
+    """Whether a shader socket may give off light: linked (could be anything), or a default above 0."""
+    if sock is None:
+        return False
+    if sock.is_linked:
+        return True
+    v = sock.default_value
+    return max(v[:3]) > 0.0 if colour else float(v) > 0.0
+
+
+def has_emitters(scene) -> bool:
+    """True when a rendered mesh's material may emit light (an Emission shader, or a Principled BSDF with an
+    Emission Strength and Colour above 0, or either linked to other nodes). False means the emitter render
+    would be black, so ``render_emitter_direct`` is not needed (``emitter_direct`` returns zeros then)."""
+    mats = {s.material for o in scene.objects if o.type in ("MESH", "CURVE", "SURFACE", "META", "FONT")
+            and not o.hide_render for s in o.material_slots if s.material is not None}
+    for m in mats:
+        nt = m.node_tree
+        if nt is None:
+            continue
+        for n in nt.nodes:
+            if n.bl_idname == "ShaderNodeEmission" and _lit_input(n.inputs.get("Strength")) \
+                    and _lit_input(n.inputs.get("Color"), colour=True):
+                return True
+            if n.bl_idname == "ShaderNodeBsdfPrincipled" and _lit_input(n.inputs.get("Emission Strength")) \
+                    and _lit_input(n.inputs.get("Emission Color"), colour=True):
+                return True
+            if n.bl_idname == "ShaderNodeGroup":  # a group may hide an emitter: render it
+                return True
+    return False
+
+
+def emitter_direct(scene) -> np.ndarray:
+    """The ``emit_direct`` group: ``render_emitter_direct`` at its defaults, or zeros (no render) when the scene
+    has no emitter (``has_emitters``)."""
+    if has_emitters(scene):
+        return render_emitter_direct(scene)
+    r = scene.render
+    h = int(r.resolution_y * r.resolution_percentage / 100)
+    w = int(r.resolution_x * r.resolution_percentage / 100)
+    return np.zeros((h, w, 3), np.float32)
 
 
 PANEL_STRENGTH = 40.0  # emission_panel_room's panel: Cycles' Diffuse Direct mean 0.19 / 0.13 in rooms 2 / 3 (240x135)

@@ -390,38 +390,27 @@ def render_rest(scene, samples: int | None = None) -> tuple[np.ndarray, np.ndarr
     return rest.astype(np.float32), combined
 
 
-# how the `direct_soft` group is made, recorded in the manifest settings (eevee.direct_soft)
-SOFT_SAMPLES = 16
-SOFT_MODE = "diffuse_direct_real_light_sizes_direct_only_world"
-
-
-def render_direct_soft(scene, samples: int = SOFT_SAMPLES) -> np.ndarray:
-    """The ``direct_soft`` group: EEVEE's Diffuse Direct pass with the lights at their real size, the direct-only
-    world and settings of the G-buffer, at ``samples`` TAA samples. HxWx3 float32."""
-    _check_camera(scene)
-    with _settings_kept(scene):
-        configure_gbuffer(scene, ("direct",), samples=samples)
-        with _direct_only_world(scene):
-            passes = _render(scene)
-    return _group(passes, "direct")[..., :3]
-
-
-# groups rendered by a render of their own, in this order (the last render's result is what a caller saves)
-OWN_RENDER_GROUPS = ("world", "direct_soft")
+# groups rendered by a render of their own (direct_light.py: soft direct light; the emitters' direct light, a
+# Cycles render), in this order
+OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct")
+# every input group a render of the scene gives (emit_direct is Cycles', the rest EEVEE's)
+INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct",)
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
-    hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world`` and
-    ``direct_soft`` take a render each; ``rest`` is the artist's own render (``render_rest`` at
+    hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
+    ``direct_soft`` and ``emit_direct`` (a Cycles render, only in a scene with emitters) take a render each; ``rest`` is the artist's own render (``render_rest`` at
     ``rest_samples``, default the scene's), rendered last, so that the Render Result left behind is that
     render (render.py saves it for the artist's compositor tree). The scene's render settings are put back."""
+    from . import direct_light
+
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
     for g in groups:
-        if g not in EEVEE_GROUPS:
-            raise ValueError(f"group {g!r} is not rendered by EEVEE; EEVEE groups: {EEVEE_GROUPS}")
+        if g not in INPUT_RENDER_GROUPS:
+            raise ValueError(f"group {g!r} is not rendered from the scene; those are: {INPUT_RENDER_GROUPS}")
     _check_camera(scene)
     raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",))
     out = {}
@@ -429,7 +418,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
         if "world" in groups:
             out["world"] = render_world(scene, samples=samples)
         if "direct_soft" in groups:
-            out["direct_soft"] = render_direct_soft(scene)
+            out["direct_soft"] = direct_light.render_soft_direct(scene)
+        if "emit_direct" in groups:
+            out["emit_direct"] = direct_light.emitter_direct(scene)
         if raster:
             configure_gbuffer(scene, raster, samples=samples)
             with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):

@@ -24,7 +24,7 @@ def run_bake(args) -> dict:
     cfg = BakeConfig(out=args.out, count=args.count, seed=args.seed, size=tuple(args.size),
                      ref_samples=args.ref_samples, ref_target_db=args.ref_target_db, denoise=args.denoise,
                      eevee_samples=args.eevee_samples, shard=args.shard, scenes=args.scenes, frames=args.frames,
-                     mode=args.mode, soft=args.soft)
+                     mode=args.mode)
     bar = None
 
     def on_start(ev):  # the bar shows from the start, not after the first (minutes-long) sample
@@ -91,9 +91,6 @@ def register_cli(sub) -> None:
                    help="random rooms: 'diffuse' (diffuse primitives and lamps, the seed's) or 'artist' (Principled, "
                         "metal, glass, textures, emitters, sky and sun, exteriors; docs/artist_rooms.md) "
                         "(default %(default)s)")
-    p.add_argument("--soft", action="store_true", default=D.soft,
-                   help="a new folder's samples also hold direct_soft, EEVEE's direct light with the lights at their "
-                        "real size (one more EEVEE render of 16 samples per sample)")
     p.add_argument("--size", type=cliargs.parse_size, default=cliargs.Size(*D.size), metavar="WxH",
                    help="image size (default %(default)s)")
     p.add_argument("--ref-samples", type=cliargs.positive_int, default=D.ref_samples,

@@ -19,43 +19,43 @@ from ...model.dataset import folder as ds
 from ...model.dataset import exrio
 from ...model import files
 from ...model.errors import UserError
-from ..blender import passes, room
+from ..blender import direct_light, passes, room
 from ..blender.reference import DEFAULT_REF_SAMPLES, render_references, resolve_ref_target
 
 DEFAULT_SIZE = (240, 135)
 DEFAULT_DENOISE = False
 DEFAULT_EEVEE_SAMPLES = 1
-EEVEE_SAMPLE_GROUPS = passes.EEVEE_GROUPS
 CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
-# what a new folder's samples hold: every group but the artist-settings render `rest` and, unless asked for
-# (--soft), the soft direct light (a render of passes.SOFT_SAMPLES samples: most of a sample's EEVEE time)
-BAKE_GROUPS = tuple(g for g in passes.BAKE_EEVEE_GROUPS if g != "direct_soft") + CYCLES_SAMPLE_GROUPS
-SOFT_BAKE_GROUPS = passes.BAKE_EEVEE_GROUPS + CYCLES_SAMPLE_GROUPS
+# what a new folder's samples hold: every input group and both references, not the artist-settings render rest
+BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS if g != "rest")
+BAKE_GROUPS = BAKE_INPUT_GROUPS + CYCLES_SAMPLE_GROUPS
 ROOM_MODES = room.MODES
 
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
               ref_target_db=None, mode="diffuse"):
-    s = ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
-                    ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames,
+    return ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
+                    ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames, room_mode=mode,
                     eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
                            "world_group": passes.WORLD_GROUP_MODE,
                            "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0,
                                            "area_size_m": passes.AREA_LIGHT_SIZE},
-                           "direct_soft": {"mode": passes.SOFT_MODE, "samples": passes.SOFT_SAMPLES},
+                           "direct_soft": {"samples": direct_light.SOFT_SAMPLES, "jitter": direct_light.SOFT_JITTER,
+                                           "shadow_ray_count": direct_light.SOFT_RAY_COUNT,
+                                           "shadow_step_count": direct_light.SOFT_STEP_COUNT, "point_sampled": True},
+                           "emit_direct": {"renderer": "cycles", "samples": direct_light.EMITTER_SAMPLES,
+                                           "denoise": True, "lamps": "hidden", "zeros_without_emitters": True},
                            "ref_diffuse": "cycles diffuse color x (diffuse direct + indirect), OIDN-denoised "
                                           "(compositor Denoise node, albedo + normal) when the reference is"})
-    if mode != "diffuse":  # a diffuse-room folder's settings stay those of the bakes before the modes existed
-        s["room_mode"] = mode
-    return s
 
 
 def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0,
-                  keep_sky: bool = True, eevee_groups=EEVEE_SAMPLE_GROUPS, cycles_groups=("ref",),
+                  keep_sky: bool = True, eevee_groups=None, cycles_groups=("ref",),
                   ref_target_db: float | None = None) -> tuple[dict, dict, dict]:
     """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds, reference info)."""
     t0 = time.perf_counter()
-    groups = passes.render_gbuffer(scene, eevee_groups, samples=eevee_samples, keep_sky=keep_sky)
+    groups = passes.render_gbuffer(scene, BAKE_INPUT_GROUPS if eevee_groups is None else eevee_groups,
+                                   samples=eevee_samples, keep_sky=keep_sky)
     groups.pop("beauty", None)
     t1 = time.perf_counter()
     refs, ref_info = render_references(scene, ref_samples, ref_target_db, seed=ref_seed, denoise=denoise,
@@ -123,7 +123,7 @@ def _complete(out, name, manifest) -> bool:
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
               shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
-              mode: str = "diffuse", soft: bool = False):
+              mode: str = "diffuse"):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -151,8 +151,7 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
-    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
-                                 groups=SOFT_BAKE_GROUPS if soft else BAKE_GROUPS)
+    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard, groups=BAKE_GROUPS)
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
@@ -160,7 +159,7 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     keep_sky = manifest["settings"].get("eevee", {}).get("world") != "black"
     # ... and a folder begun before a group existed (`world`; `emission`, `direct_soft`, `ref_diffuse`) goes on
     # without it
-    eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in EEVEE_SAMPLE_GROUPS)
+    eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in BAKE_INPUT_GROUPS)
     cycles_groups = tuple(g for g in ds.stored_groups(manifest) if g in CYCLES_SAMPLE_GROUPS)
 
     def owned(final_name):
@@ -235,7 +234,6 @@ class BakeConfig:
     scenes: list | None = None  # bake these .blend files' cameras instead of rooms
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
-    soft: bool = False  # also bake direct_soft (EEVEE's direct light at the lights' real size) into a new folder
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
@@ -251,8 +249,7 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     cfg.check()
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
-                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode,
-                    soft=cfg.soft)
+                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode)
     start = next(gen)
     if on_start:
         on_start(start)

@@ -53,10 +53,10 @@ def test_bake_writes_a_verified_dataset(baked):
     assert "2/2" in stderr and "<00:00" in stderr  # tqdm progress with an ETA on stderr
     m = json.loads((d / "manifest.json").read_text())
     assert m["format_version"] == ch.FORMAT_VERSION and m["blender_version"].startswith("5.0")
-    from ssgi.ssgi_addon.pipeline.bake import BAKE_GROUPS  # every group but rest and (without --soft) direct_soft
+    from ssgi.ssgi_addon.pipeline.bake import BAKE_GROUPS  # every group but rest (the artist-settings render)
     assert m["channel_spec"] == json.loads(json.dumps(ch.describe(BAKE_GROUPS)))
-    assert {"emission", "ref_diffuse"} <= {g["name"] for g in m["channel_spec"]}
-    assert not {"rest", "direct_soft"} & {g["name"] for g in m["channel_spec"]}
+    assert {"emission", "direct_soft", "emit_direct", "ref_diffuse"} <= {g["name"] for g in m["channel_spec"]}
+    assert "rest" not in {g["name"] for g in m["channel_spec"]}
     st = m["settings"]
     assert (st["kind"], st["size"], st["ref_samples"], st["denoise"], st["eevee_samples"], st["first_seed"]) == \
         ("rooms", [64, 36], 2, False, 1, 3)  # OIDN off by default

@@ -462,8 +462,10 @@ def test_settings_schema_writes_every_identity_key_and_one_entry_reads_folders(t
     scenes = dataset.settings("scenes", (32, 18), 2, True, 1, diffuse_bounces=3, eevee=eevee, scenes=["a.blend"],
                               frames=[1, 2], ref_target_db=41.0)
     for s in (rooms, scenes):
-        assert set(dataset.IDENTITY_SETTINGS) - set(s) <= {"first_seed", "scenes", "frames"}
-    assert set(dataset.IDENTITY_SETTINGS) <= set(rooms) | set(scenes)
+        assert set(dataset.IDENTITY_SETTINGS) - set(s) <= {"first_seed", "scenes", "frames", "room_mode"}
+    artist = dataset.settings("rooms", (32, 18), 2, False, 1, diffuse_bounces=3, eevee=eevee, first_seed=5,
+                              room_mode="artist")
+    assert set(dataset.IDENTITY_SETTINGS) <= set(rooms) | set(scenes) | set(artist)
     assert rooms["eevee"] == eevee and scenes["cycles"]["denoiser"] == "OPENIMAGEDENOISE"
     with pytest.raises(UserError, match=r"baked with ref_samples=2 \(not ref_samples=3\)"):
         dataset.check_compatible({"settings": rooms}, dict(rooms, ref_samples=3), "here")
