@@ -77,6 +77,7 @@ def measure(im: dict, mask: np.ndarray) -> dict:
         out[name] = dict(psnr=_num(s["psnr"], 2), ssim=_num(s["ssim"]), flip=_num(s["flip"]),
                          psnr_frame=_num(metrics.psnr(im[p], im[r]), 2))
     out["mean"] = {k: _num(float(im[k].mean())) for k in MEANS}
+    out["mean_geometry"] = {k: _num(float(im[k][mask].mean())) if mask.any() else None for k in MEANS}
     out["negative_mean"] = {k: _num(float(np.minimum(im[k], 0).mean()), 5) for k in ("cycles_rest", "eevee_rest")}
     out["geometry_fraction"] = _num(float(mask.mean()), 3)
     return out
@@ -106,19 +107,17 @@ def table(rows: list[dict]) -> str:
     mean_row = [f"{np.mean([r[k]['psnr'] for r in rows]):.2f} / {np.mean([r[k]['ssim'] for r in rows]):.3f} / "
                 f"{np.mean([r[k]['flip'] for r in rows]):.3f}" for k in SCORED]
     lines.append("| mean | " + " | ".join(mean_row) + " |")
-    lines += ["", "| scene | Cycles image | Cycles diffuse (share) | Cycles rest (share) | EEVEE image | "
-                  "EEVEE diffuse (share) | EEVEE rest (share) | G-buffer diffuse | s G-buffer / EEVEE / Cycles |",
-              "|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", "| scene | Cycles image | Cycles diffuse | Cycles rest | EEVEE image | EEVEE diffuse | EEVEE rest | "
+                  "G-buffer diffuse | rest share Cycles / EEVEE (frame) | (geometry) | s G-buffer / EEVEE / Cycles |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        m = r["mean"]
+        m, g, t = r["mean"], r["mean_geometry"], r["seconds"]
 
-        def share(k, whole):
-            return f"{m[k]:.4f} ({m[k] / m[whole]:.0%})" if m[whole] else f"{m[k]:.4f}"
-        t = r["seconds"]
-        lines.append(f"| {r['scene']} | {m['cycles_image']:.4f} | {share('cycles_diffuse', 'cycles_image')} | "
-                     f"{share('cycles_rest', 'cycles_image')} | {m['eevee_image']:.4f} | "
-                     f"{share('eevee_diffuse', 'eevee_image')} | {share('eevee_rest', 'eevee_image')} | "
-                     f"{m['gbuffer_diffuse']:.4f} | {t['gbuffer_s']} / {t['eevee_s']} / {t['cycles_s']} |")
+        def shares(d):
+            return " / ".join(f"{d[f'{k}_rest'] / d[f'{k}_image']:.0%}" if d[f"{k}_image"] else "-"
+                              for k in ("cycles", "eevee"))
+        lines.append(f"| {r['scene']} | " + " | ".join(f"{m[k]:.4f}" for k in MEANS) +
+                     f" | {shares(m)} | {shares(g)} | {t['gbuffer_s']} / {t['eevee_s']} / {t['cycles_s']} |")
     return "\n".join(lines)
 
 
@@ -130,6 +129,7 @@ def main(argv=None) -> int:
     ap.add_argument("--eevee-samples", type=int, default=16, help="EEVEE's own render samples (16)")
     ap.add_argument("--spp", type=int, default=128, help="Cycles samples, + OIDN (128)")
     ap.add_argument("--out", required=True, help="folder for <scene>.png and components.json")
+    ap.add_argument("--npz", help="also save each scene's images and mask as NPZ/<scene>.npz (for a closer look)")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -138,6 +138,9 @@ def main(argv=None) -> int:
         scene = A.build(name, tuple(a.size))
         im, mask, secs = render_components(scene, a.eevee_samples, a.spp)
         images.write_png(out / f"{name}.png", sheet(im))
+        if a.npz:
+            Path(a.npz).mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(Path(a.npz) / f"{name}.npz", mask=mask, **im)
         row = dict(scene=name, **measure(im, mask), seconds=secs)
         rows.append(row)
         print(json.dumps(row), flush=True)
