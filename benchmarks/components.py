@@ -69,6 +69,17 @@ def _num(x, nd=4):
     return None if x is None or not math.isfinite(x) else round(float(x), nd)
 
 
+NEGATIVE = -0.01  # a rest pixel below this (any channel) counts as negative
+
+
+def _worst_share(pred, ref, mask, top: float = 0.02) -> float:
+    """The share of the squared error (clamped [0, 1], over ``mask``) that lies in the worst ``top`` of the pixels:
+    near 1 when a few pixels (one object) make the error."""
+    e = np.sum((np.clip(pred, 0, 1) - np.clip(ref, 0, 1)) ** 2, axis=-1)[mask]
+    e = np.sort(e)[::-1]
+    return float(e[:max(1, int(top * e.size))].sum() / e.sum()) if e.size and e.sum() > 0 else math.nan
+
+
 def measure(im: dict, mask: np.ndarray) -> dict:
     """Scores (SCORED, over ``mask``) and means (over the whole frame) of one scene's images."""
     out = {}
@@ -79,6 +90,9 @@ def measure(im: dict, mask: np.ndarray) -> dict:
     out["mean"] = {k: _num(float(im[k].mean())) for k in MEANS}
     out["mean_geometry"] = {k: _num(float(im[k][mask].mean())) if mask.any() else None for k in MEANS}
     out["negative_mean"] = {k: _num(float(np.minimum(im[k], 0).mean()), 5) for k in ("cycles_rest", "eevee_rest")}
+    out["negative_fraction"] = {k: _num(float((im[k].min(axis=-1) < NEGATIVE).mean()), 4)
+                                for k in ("cycles_rest", "eevee_rest")}
+    out["ceiling_error_in_worst_2pc"] = _num(_worst_share(im["ceiling"], im["cycles_image"], mask), 3)
     out["geometry_fraction"] = _num(float(mask.mean()), 3)
     return out
 
