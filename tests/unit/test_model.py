@@ -545,7 +545,7 @@ def test_a_group_added_to_the_spec_reaches_the_preview_the_benchmark_and_the_abl
     assert "curvature" in preview.columns(m) and preview.columns(m)[-1] == "ref"
     assert preview._tile("curvature", np.full((2, 2, 1), 0.5, np.float32)).shape == (2, 2, 3)
     assert bench.synthetic_groups(4, 3)["curvature"].shape == (3, 4, 1)
-    assert ch.drop_order()[:3] == ("direct_soft", "world", "curvature")
+    assert ch.drop_order()[:4] == ("direct_soft", "emit_direct", "world", "curvature")
     spec = ch.parse_spec("albedo,direct,curvature")
     assert ablation.droppable(spec, "residual") == ["curvature"]
     assert {g.name: g.render_pass for g in ch.GROUPS.values()}["curvature"] == "Curvature"
