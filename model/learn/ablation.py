@@ -46,6 +46,38 @@ def drop_inputs(net, new_spec) -> torch.nn.Module:
     return new
 
 
+def grow_inputs(net, new_spec, target: str | None = None) -> torch.nn.Module:
+    """The inverse of ``drop_inputs``: a network for ``new_spec`` (holding ``net``'s inputs in the same order,
+    plus new groups anywhere) with ``net``'s weights, the new channels' weights 0, so that it computes exactly
+    what ``net`` does until training changes them (``cli.py train --init``). ``target``: what the new network
+    predicts (default: ``net``'s)."""
+    old_spec = tuple(net.arch["inputs"])
+    new_spec = ch.parse_spec(new_spec)
+    if [g for g in new_spec if g in old_spec] != list(old_spec):
+        raise UserError(f"inputs {ch.format_spec(new_spec)} do not hold {ch.format_spec(old_spec)} in that order")
+    lay = normalize.layout(new_spec)
+    kept = [i for g in old_spec for i in range(lay[g].start, lay[g].stop)]
+    c_old, c_new = ch.input_channels(old_spec), ch.input_channels(new_spec)
+    arch = dict(net.arch, inputs=list(new_spec), target=ch.check_target(target or network.target_of(net.arch)))
+    new = network.build(arch)
+    old_sd, new_sd = net.state_dict(), new.state_dict()
+    out = {}
+    for k, w in new_sd.items():
+        o = old_sd[k]
+        if o.shape == w.shape:
+            out[k] = o.detach().clone()
+            continue
+        if o.dim() != 4 or w.shape[1] - o.shape[1] != c_new - c_old or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
+            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs {ch.format_spec(new_spec)} {tuple(w.shape)}")
+        base = o.shape[1] - c_old
+        grown = torch.zeros_like(w)
+        grown[:, :base] = o[:, :base]
+        grown[:, [base + i for i in kept]] = o[:, base:]
+        out[k] = grown
+    new.load_state_dict(out)
+    return new
+
+
 def droppable(spec, head: str) -> list[str]:
     need = network.HEAD_NEEDS.get(head, ())
     return [g for g in ch.drop_order() if g in spec and g not in need]

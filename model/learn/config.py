@@ -36,6 +36,7 @@ class TrainConfig:
     seed: int = 0
     val_fraction: float = 0.2
     target: str | None = None  # what to learn (channels.TARGETS); None: ref_diffuse when the dataset holds it, else ref
+    init: str | None = None  # start from this checkpoint's weights (its variant and architecture; new inputs at 0)
     command: str | None = None
 
     def check(self) -> None:

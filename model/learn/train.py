@@ -143,6 +143,8 @@ class Trainer:
             split = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set], by="view")
         self.identity = dict(ident, split=split)
         torch.manual_seed(cfg.seed)
+        if cfg.init and resume is None and self.init_state is None:
+            self.init_state = self._init_from(cfg.init, spec)
         self.net = network.build(network.arch_for(cfg.variant, spec, target=cfg.target, **cfg.arch))
         self.net.train()
         self.net.to(memory_format=torch.channels_last)  # measured 1.2-1.6x faster steps on this CPU
@@ -185,6 +187,24 @@ class Trainer:
                  f"{self.net.receptive_field}px; {len(self.train_set)} train / {len(self.val_set)} val samples "
                  f"({len(train_sc)} / {len(val_sc)} scenes); {self.cpi} crops of {self.crop[0]}x{self.crop[1]} per image")
         self._snapshot()
+
+    def _init_from(self, path, spec) -> dict:
+        """``--init``: the weights of checkpoint ``path`` for this run's inputs (ablation.grow_inputs: its inputs
+        kept, new ones at 0); its variant and architecture become this run's."""
+        from .ablation import grow_inputs
+
+        ck = checkpoint.load(path)
+        old = checkpoint.build_net(ck, path)
+        arch = dict(old.arch)
+        if arch.get("backbone") == "linear":
+            raise UserError(f"--init {path}: a linear baseline cannot start a network's training")
+        self.cfg.variant = arch["variant"]
+        keys = network.BACKBONES[arch["backbone"]][1]
+        self.cfg.arch = {k: arch[k] for k in keys if k in arch and arch[k] != network.VARIANTS[arch["variant"]].get(k)}
+        net = grow_inputs(old, spec, target=self.cfg.target)
+        self.log(f"--init {path}: its {arch['variant']} weights, inputs {ch.format_spec(tuple(old.arch['inputs']))} "
+                 f"grown to {ch.format_spec(spec)} (new inputs' weights 0), target {self.cfg.target}")
+        return net.state_dict()
 
     def _snapshot(self):
         self.snap = (copy.deepcopy(self.net.state_dict()), copy.deepcopy(self.opt.state_dict()))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
+from ...model.cliargs import existing_file
 from ..pipeline.learn import BaselineConfig, PredictConfig
 from . import command_line
 
@@ -32,7 +33,8 @@ def run_train(args) -> dict:
                       arch=_arch_overrides(args.arch), minutes=args.minutes, epochs=args.epochs, resume=args.resume,
                       optimizer=args.optimizer, lr=args.lr, clip=args.clip, batch=args.batch, crop=args.crop,
                       crops_per_image=args.crops_per_image, early_stop=args.early_stop, threads=args.threads,
-                      seed=args.seed, val_fraction=args.val_fraction, target=args.target, command=command_line())
+                      seed=args.seed, val_fraction=args.val_fraction, target=args.target, init=args.init,
+                      command=command_line())
     bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet, bar_format="{l_bar}{bar}| {postfix}")
 
     def cb(d):
@@ -96,6 +98,9 @@ def register_cli(sub) -> None:
     p.add_argument("--arch", metavar="JSON", help='override variant settings, e.g. \'{"width": 32}\'')
     p.add_argument("--inputs", default=T.inputs, metavar="SPEC",
                    help="input groups, comma-separated (default: %(default)s)")
+    p.add_argument("--init", metavar="M.pt", default=None, type=existing_file,
+                   help="start from this checkpoint's weights, variant and architecture; inputs it lacks start at 0, "
+                        "so training begins from exactly its predictions (e.g. the shipped model)")
     p.add_argument("--target", choices=("ref", "ref_diffuse"), default=None,
                    help="what the network learns: ref_diffuse, the diffuse part of the Cycles image, which the render "
                         "path adds to EEVEE's own emission, reflections and glass (default when the dataset holds it), "

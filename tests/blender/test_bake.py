@@ -77,7 +77,8 @@ def test_bake_writes_a_verified_dataset(baked):
 def test_sample_channels_sizes_and_values(baked):
     d, _, _ = baked
     planes, _ = exrio.read_exr(d / "000000.exr")
-    assert set(planes) == {c for g in ch.SAMPLE_GROUPS for c in ch.GROUPS[g].channels}
+    from ssgi.ssgi_addon.pipeline.bake import BAKE_GROUPS
+    assert set(planes) == {c for g in BAKE_GROUPS for c in ch.GROUPS[g].channels}
     g = exrio.read_sample(d / "000000.exr")
     assert all(v.shape[:2] == (36, 64) and np.isfinite(v).all() for v in g.values())
     assert 0 <= g["albedo"].min() and g["albedo"].max() <= 1 and g["albedo"].mean() > 0.05
@@ -89,6 +90,11 @@ def test_sample_channels_sizes_and_values(baked):
     assert (g["direct"].max(-1) > 0).mean() > 0.3
     lit = g["albedo"] * g["direct"]
     assert g["ref"].mean() > 1.1 * lit.mean()  # the reference adds bounced light to the direct light
+    # a room of diffuse materials: the diffuse part is the whole image; nothing emits, so no emitter render
+    np.testing.assert_allclose(g["ref_diffuse"].mean(), g["ref"].mean(), rtol=0.05)
+    assert not g["emission"].any() and not g["emit_direct"].any()
+    # soft direct light: the same light as the hard input, with fewer pixels left exactly black
+    np.testing.assert_allclose(g["direct_soft"].mean(), g["direct"].mean(), rtol=0.15)
     assert not np.allclose(exrio.read_sample(d / "000001.exr")["albedo"], g["albedo"])  # another room
 
 

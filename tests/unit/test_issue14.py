@@ -62,6 +62,16 @@ def test_a_dataset_with_the_diffuse_part_trains_on_it_and_the_checkpoint_says_so
     Trainer(TrainConfig(data=str(root), out=str(out), variant="unet_s", inputs=spec, epochs=1, crop=16, batch=2)).run()
     p = load_predictor(out)
     assert p.target == "ref_diffuse" and p.arch["target"] == "ref_diffuse"
+    # --init: a whole-image model with fewer inputs starts a diffuse-part training with more
+    first = tmp_path / "first.pt"
+    Trainer(TrainConfig(data=str(old), out=str(first), variant="unet_s", inputs="albedo,normal,depth,direct",
+                        epochs=1, crop=8, batch=2)).run()
+    grown = tmp_path / "grown.pt"
+    t = Trainer(TrainConfig(data=str(root), out=str(grown), variant="unet", inputs=spec, epochs=1, crop=16, batch=2,
+                            init=str(first)))
+    t.run()
+    g = load_predictor(grown)
+    assert g.arch["variant"] == "unet_s" and g.target == "ref_diffuse" and tuple(g.spec) == tuple(spec.split(","))
     with pytest.raises(UserError, match="ref_diffuse"):  # an old dataset has no diffuse part to learn
         data.DatasetFolder.load(old, "albedo,normal,depth,direct", target="ref_diffuse")
 
@@ -71,3 +81,26 @@ def test_a_folder_of_one_room_mode_refuses_a_bake_of_another():
     with pytest.raises(UserError, match="room_mode='artist'"):
         folder.check_compatible(m, {"kind": "rooms"}, "DIR")
     folder.check_compatible(m, {"kind": "rooms", "room_mode": "artist"}, "DIR")
+
+
+def test_init_grows_the_inputs_with_zero_weights_so_training_starts_from_the_given_models_predictions(tmp_path):
+    import torch
+
+    from ssgi.model import normalize
+    from ssgi.model.learn import ablation, network
+
+    torch.manual_seed(0)
+    for variant in ("unet_s", "fssgi_res"):
+        old = network.build(network.arch_for(variant, "albedo,normal,depth,direct,lit"))
+        new = ablation.grow_inputs(old, "albedo,normal,depth,direct,emission,emit_direct,lit,glow", target="ref_diffuse")
+        assert new.arch["target"] == "ref_diffuse" and network.target_of(old.arch) == "ref"
+        g = synthetic.with_emission(synthetic.sample(32, 16, 1, 1), 1)
+        g["emit_direct"] = g["direct"] * 0.5
+        xo, _ = normalize.to_inputs(g, tuple(old.arch["inputs"]))
+        xn, _ = normalize.to_inputs(g, tuple(new.arch["inputs"]))
+        with torch.no_grad():
+            a = old(torch.from_numpy(xo).permute(2, 0, 1)[None])
+            b = new(torch.from_numpy(xn).permute(2, 0, 1)[None])
+        torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-5)
+        with pytest.raises(UserError, match="do not hold"):
+            ablation.grow_inputs(old, "albedo,direct")
