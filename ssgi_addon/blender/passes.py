@@ -390,6 +390,9 @@ def render_rest(scene, samples: int | None = None) -> tuple[np.ndarray, np.ndarr
     return rest.astype(np.float32), combined
 
 
+# The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
+# rendered at 1 sample whatever the G-buffer's samples (bakes render it so), not at the artist's 16-64.
+WORLD_SAMPLES = 1
 # groups rendered by a render of their own (direct_light.py: soft direct light; the emitters' direct light, a
 # Cycles render), in this order
 OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct")
@@ -415,8 +418,8 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",))
     out = {}
     with _settings_kept(scene):
-        if "world" in groups:
-            out["world"] = render_world(scene, samples=samples)
+        if "world" in groups:  # smooth unoccluded light: 1 sample, as every bake renders it (WORLD_SAMPLES)
+            out["world"] = render_world(scene, samples=WORLD_SAMPLES)
         if "direct_soft" in groups:
             out["direct_soft"] = direct_light.render_soft_direct(scene)
         if "emit_direct" in groups:

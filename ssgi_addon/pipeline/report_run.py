@@ -36,7 +36,7 @@ from ...model.evaluate import analysis
 from ...model.infer.compose import compose
 from ...model.errors import UserError
 from ..blender import passes
-from .report_scenes import RASTER_GROUPS, EvalScene
+from .report_scenes import EXTRA_GROUPS, RASTER_GROUPS, EvalScene
 
 # EEVEE's own GI: ray tracing + fast GI (horizon scan) on. "default": Blender's default tracing settings;
 # "high": full-resolution tracing and fast GI, more rays and steps, best screen-trace quality.
@@ -154,6 +154,8 @@ class ReportRun:
         self.images: dict = {}
         self._warm = False
         self._world = any(_needs_world(p) for _, p in models)  # the world pass only when a model reads it
+        # ... and the soft direct light and the emitters' direct light too
+        self._extra = tuple(e for e in EXTRA_GROUPS if any(e in ch.required_groups(tuple(p.spec)) for _, p in models))
         self._steps = 0
         self._t0 = time.perf_counter()
         n_ssgi = 1 if any(_diffuse(p) for _, p in models) else 0
@@ -208,7 +210,8 @@ class ReportRun:
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
-        g = passes.render_gbuffer(scene, samples=self.s.gbuffer_samples)  # with the world pass
+        g = passes.render_gbuffer(scene, RASTER_GROUPS + ("world",) + self._extra,
+                                  samples=self.s.gbuffer_samples)  # with the world pass
         for k in GI_PRESETS:
             render_eevee_gi(scene, k, 1)
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
@@ -243,8 +246,8 @@ class ReportRun:
             self._warmup(scene)
         name = es.name
         self.raw["scenes"].append(name)
-        g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
-        t_g, t_w = es.t_raster, es.t_world
+        g = es.gbuffer(scene, s.gbuffer_samples, world=self._world, extra=self._extra)
+        t_g, t_w, t_x = es.t_raster, es.t_world, dict(es.t_extra)
         self._step(f"{name}: G-buffer {t_g:.2f} s, world pass {t_w:.2f} s")
         mask = images.geometry_mask(g["depth"], g["normal"])
         ref = es.ref
@@ -263,12 +266,12 @@ class ReportRun:
         self.raw.setdefault("geometry_fraction", {})[name] = float(mask.mean())
         self._score("eevee_direct", name, g["eevee"][..., :3], ref, mask,
                     dict(gbuffer_s=t_g, whole_s=t_g, own_s=t_g))
-        gd, t_gd, t_rest = None, 0.0, 0.0
+        gd, t_gd, t_wd, t_xd, t_rest = None, 0.0, 0.0, {}, 0.0
         if any(_diffuse(p) for _, p in self._model_keys.values()):
             # the SSGI path of a diffuse-part model: its G-buffer and EEVEE's own other components at the same
             # samples (their anti-aliasing must agree), as the render path renders them
-            gd = es.gbuffer(scene, s.ssgi_samples, world=self._world)
-            t_gd = es.t_raster
+            gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
+            t_gd, t_wd, t_xd = es.t_raster, es.t_world, dict(es.t_extra)
             (gd["rest"], _beauty), t_rest = _timed(passes.render_rest, scene, s.ssgi_samples)
             self._step(f"{name}: SSGI passes at {s.ssgi_samples} samples: G-buffer {t_gd:.2f} s, rest {t_rest:.2f} s")
         for key, (path, pred) in self._model_keys.items():
@@ -278,7 +281,10 @@ class ReportRun:
                 img, t = _timed(pred.predict, gg)
                 ts.append(t)
             t_p = float(np.median(ts))
-            times = dict(gbuffer_s=(t_gd if _diffuse(pred) else t_g) + (t_w if _needs_world(pred) else 0.0), predict_s=t_p)
+            d = _diffuse(pred)
+            extra = sum(t for e, t in (t_xd if d else t_x).items() if e in ch.required_groups(tuple(pred.spec)))
+            world_s = (t_wd if d else t_w) if _needs_world(pred) else 0.0
+            times = dict(gbuffer_s=(t_gd if d else t_g) + world_s + extra, predict_s=t_p)
             if _diffuse(pred):
                 img = compose(img, gg, pred.target)
                 times["rest_s"] = t_rest
@@ -357,11 +363,11 @@ class ReportRun:
             cam.location = loc0 + x_axis * (0.4 * t)
             cam.rotation_euler = (rot0.x, rot0.y, rot0.z + math.radians(8) * t)
             bpy.context.view_layer.update()
-            g = es.gbuffer(scene, s.gbuffer_samples, world=self._world)
+            g = es.gbuffer(scene, s.gbuffer_samples, world=self._world, extra=self._extra)
             seqs.setdefault("EEVEE direct light only", []).append(g["eevee"][..., :3])
             gd = None
             if any(_diffuse(p) for _, p in self._model_keys.values()):
-                gd = es.gbuffer(scene, s.ssgi_samples, world=self._world)
+                gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
                 gd["rest"] = passes.render_rest(scene, s.ssgi_samples)[0]
             for key, (path, pred) in self._model_keys.items():
                 img = compose(pred.predict(gd), gd, pred.target) if _diffuse(pred) else pred.predict(g)

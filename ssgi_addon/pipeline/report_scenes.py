@@ -20,8 +20,10 @@ from ...model import channels as ch
 from ...model.errors import UserError
 from ..blender import blendfile, passes, room
 
-# the G-buffer every method shares (the world pass is separate: see EvalScene.gbuffer)
-RASTER_GROUPS = tuple(g for g in passes.EEVEE_GROUPS if g != "world")
+# the G-buffer every method shares: one EEVEE render (the world pass, the soft direct light and the emitters'
+# direct light are renders of their own, made only for the models that read them: see EvalScene.gbuffer)
+RASTER_GROUPS = tuple(g for g in passes.EEVEE_GROUPS if g not in passes.OWN_RENDER_GROUPS + ("rest",))
+EXTRA_GROUPS = tuple(g for g in passes.OWN_RENDER_GROUPS if g != "world")
 
 
 @dataclass
@@ -33,16 +35,22 @@ class EvalScene:
     stored_eevee: np.ndarray | None = None  # the dataset's own EEVEE direct image: checks the rebuilt scene
 
     t_raster: float = 0.0  # seconds of the last gbuffer(): the direct-only raster ...
-    t_world: float = 0.0  # ... and the world pass (0 when not rendered, or for a black world)
+    t_world: float = 0.0  # ... the world pass (0 when not rendered, or for a black world)
+    t_extra: dict = field(default_factory=dict)  # ... and each extra group's render (EXTRA_GROUPS)
 
-    def gbuffer(self, scene, samples: int = 1, world: bool = True) -> dict[str, np.ndarray]:
-        """passes.render_gbuffer of the scene. The world pass (a second render, only for an open scene) is timed
-        apart: only models that read it pay it."""
+    def gbuffer(self, scene, samples: int = 1, world: bool = True, extra=()) -> dict[str, np.ndarray]:
+        """passes.render_gbuffer of the scene. The world pass (a second render, only for an open scene) and the
+        ``extra`` groups (EXTRA_GROUPS: a render each) are timed apart: only models that read them pay them."""
         t0 = time.perf_counter()
         w = passes.render_world(scene, samples=samples) if world else None
         t1 = time.perf_counter()
         g = passes.render_gbuffer(scene, RASTER_GROUPS, samples=samples)
         self.t_world, self.t_raster = t1 - t0, time.perf_counter() - t1
+        self.t_extra = {}
+        for e in extra:
+            t = time.perf_counter()
+            g.update(passes.render_gbuffer(scene, (e,), samples=samples))
+            self.t_extra[e] = time.perf_counter() - t
         if w is not None:
             g["world"] = w
         return g
