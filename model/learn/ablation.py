@@ -16,34 +16,37 @@ from ..evaluate.fit_report import number
 from . import network
 
 
+def _carry(net, arch: dict, columns) -> torch.nn.Module:
+    """``network.build(arch)`` with ``net``'s weights: a weight of the same shape is copied; a weight that reads
+    the input tensor (the first conv, and the layer where the input is concatenated again; in both backbones
+    the input comes LAST in the concatenation) gets ``columns(old, new)``: the new weight from the old one."""
+    new = network.build(arch)
+    c_old, c_new = ch.input_channels(tuple(net.arch["inputs"])), ch.input_channels(tuple(arch["inputs"]))
+    old_sd, out = net.state_dict(), {}
+    for k, w in new.state_dict().items():
+        o = old_sd[k]
+        if o.shape == w.shape:
+            out[k] = o.detach().clone()
+            continue
+        if o.dim() != 4 or o.shape[1] - w.shape[1] != c_old - c_new or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
+            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs "
+                            f"{ch.format_spec(tuple(arch['inputs']))} {tuple(w.shape)}")
+        out[k] = columns(o.detach(), w, o.shape[1] - c_old)
+    new.load_state_dict(out)
+    return new
+
+
 def drop_inputs(net, new_spec) -> torch.nn.Module:
     """A network for ``new_spec`` (a sub-sequence of ``net``'s input spec, same order) with ``net``'s weights:
-    every weight that reads the input tensor (the first conv, and the layer where the input is concatenated
-    again; in both backbones the input comes LAST in the concatenation) keeps the columns of the kept
-    channels; every other weight is copied as it is."""
+    every weight that reads the input keeps the columns of the kept channels (``_carry``)."""
     old_spec = tuple(net.arch["inputs"])
     new_spec = ch.parse_spec(new_spec)
     if [g for g in old_spec if g in new_spec] != list(new_spec):
         raise UserError(f"inputs {ch.format_spec(new_spec)} are not a sub-sequence of {ch.format_spec(old_spec)}")
     lay = normalize.layout(old_spec)
     kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
-    c_old, c_new = ch.input_channels(old_spec), len(kept)
-    arch = dict(net.arch, inputs=list(new_spec))
-    new = network.build(arch)
-    old_sd, new_sd = net.state_dict(), new.state_dict()
-    out = {}
-    for k, w in new_sd.items():
-        o = old_sd[k]
-        if o.shape == w.shape:
-            out[k] = o.detach().clone()
-            continue
-        if o.dim() != 4 or o.shape[1] - w.shape[1] != c_old - c_new or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
-            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs {ch.format_spec(new_spec)} {tuple(w.shape)}")
-        base = o.shape[1] - c_old
-        cols = list(range(base)) + [base + i for i in kept]
-        out[k] = o[:, cols].detach().clone()
-    new.load_state_dict(out)
-    return new
+    return _carry(net, dict(net.arch, inputs=list(new_spec)),
+                  lambda o, w, base: o[:, list(range(base)) + [base + i for i in kept]].clone())
 
 
 def grow_inputs(net, new_spec, target: str | None = None) -> torch.nn.Module:
@@ -57,25 +60,15 @@ def grow_inputs(net, new_spec, target: str | None = None) -> torch.nn.Module:
         raise UserError(f"inputs {ch.format_spec(new_spec)} do not hold {ch.format_spec(old_spec)} in that order")
     lay = normalize.layout(new_spec)
     kept = [i for g in old_spec for i in range(lay[g].start, lay[g].stop)]
-    c_old, c_new = ch.input_channels(old_spec), ch.input_channels(new_spec)
-    arch = dict(net.arch, inputs=list(new_spec), target=ch.check_target(target or network.target_of(net.arch)))
-    new = network.build(arch)
-    old_sd, new_sd = net.state_dict(), new.state_dict()
-    out = {}
-    for k, w in new_sd.items():
-        o = old_sd[k]
-        if o.shape == w.shape:
-            out[k] = o.detach().clone()
-            continue
-        if o.dim() != 4 or w.shape[1] - o.shape[1] != c_new - c_old or o.shape[0] != w.shape[0] or o.shape[2:] != w.shape[2:]:
-            raise UserError(f"cannot carry weight {k} {tuple(o.shape)} over to inputs {ch.format_spec(new_spec)} {tuple(w.shape)}")
-        base = o.shape[1] - c_old
+
+    def columns(o, w, base):
         grown = torch.zeros_like(w)
         grown[:, :base] = o[:, :base]
         grown[:, [base + i for i in kept]] = o[:, base:]
-        out[k] = grown
-    new.load_state_dict(out)
-    return new
+        return grown
+
+    arch = dict(net.arch, inputs=list(new_spec), target=ch.check_target(target or network.target_of(net.arch)))
+    return _carry(net, arch, columns)
 
 
 def droppable(spec, head: str) -> list[str]:
