@@ -163,11 +163,13 @@ def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(sc
     assert tuple(ck["inputs"]) == ("albedo", "direct") and scene_fit["summary"]["inputs"] == ["albedo", "direct"]
     assert scene_fit["render"]["inputs"] == "albedo,direct"
     # the node rendered what the model needs (+ depth, normals and EEVEE's colour, which the render path
-    # always takes for the world pixels and the depth normalisation), and nothing else (no AO)
+    # always takes for the world pixels and the depth normalisation, and EEVEE's own rest, which a diffuse-part
+    # model's image adds: the fit's views hold the diffuse part since issue 14), and nothing else (no AO)
+    assert ck["arch"]["target"] == "ref_diffuse"
     passes = scene_fit["dir"] / "passes" / "000002.exr"
     planes, _ = exrio.read_exr(passes)
-    assert {c.split(".")[0] for c in planes} == {"albedo", "direct", "depth", "normal", "eevee"}
-    g = exrio.read_sample(passes, groups=("albedo", "direct", "depth", "normal", "eevee"))
+    assert {c.split(".")[0] for c in planes} == {"albedo", "direct", "depth", "normal", "eevee", "rest"}
+    g = exrio.read_sample(passes, groups=("albedo", "direct", "depth", "normal", "eevee", "rest"))
     want, world = expected_image(scene_fit["model"], g, 100.0)
     got = read_rgba(scene_fit["dir"] / "ssgi_0002.exr")
     np.testing.assert_allclose(got[..., :3], want, rtol=1e-5, atol=1e-6)

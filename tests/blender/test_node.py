@@ -101,10 +101,14 @@ def make_checkpoint(path: Path, variant: str = "unet_s", inputs=None) -> Path:
 
 
 def expected_image(model: Path, groups: dict, clip_end: float) -> np.ndarray:
-    """What the node must show, computed here: predict() on the passes, EEVEE's colour where no geometry."""
+    """What the node must show, computed here: predict() on the passes; a whole-image model with EEVEE's colour
+    where no geometry, a diffuse-part model plus EEVEE's own rest (issue 14)."""
     from ssgi.model.infer import predictor
-    pred = predictor.load_predictor(model).predict(groups)
+    p = predictor.load_predictor(model)
+    pred = p.predict(groups)
     world = groups["depth"][..., 0] >= 0.999 * clip_end
+    if p.target == "ref_diffuse":
+        return np.maximum(pred + groups["rest"][..., :3], 0), world
     return np.where(world[..., None], groups["eevee"][..., :3], pred), world
 
 
