@@ -169,6 +169,22 @@ def _mesh(shape: str, name: str) -> bpy.types.Mesh:
     return me
 
 
+def add_light(scene, d: dict) -> bpy.types.Object:
+    """A lamp of ``room_params``' light dict ``d`` (point, spot or area) linked into ``scene`` (both modes)."""
+    li = bpy.data.lights.new(d["name"], d["type"])
+    li.color = d["colour"]
+    li.energy = d["energy"]
+    if d["type"] == "AREA":
+        li.shape, li.size, li.size_y = d["shape"], d["size"], d["size_y"]
+    else:
+        li.shadow_soft_size = d["radius"]
+    if d["type"] == "SPOT":
+        li.spot_size, li.spot_blend = d["spot_size"], d["spot_blend"]
+    o = _link(scene, bpy.data.objects.new(d["name"], li))
+    o.location, o.rotation_euler = d["location"], d["rotation"]
+    return o
+
+
 def _link(scene, obj) -> bpy.types.Object:
     obj["ssgi_room"] = True
     scene.collection.objects.link(obj)
@@ -232,17 +248,7 @@ def build_room(seed: int, scene=None, mode: str = "diffuse"):
         o.location, o.rotation_euler, o.scale = d["location"], d["rotation"], d["scale"]
 
     for d in prm["lights"]:
-        li = bpy.data.lights.new(d["name"], d["type"])
-        li.color = d["colour"]
-        li.energy = d["energy"]
-        if d["type"] == "AREA":
-            li.shape, li.size, li.size_y = d["shape"], d["size"], d["size_y"]
-        else:
-            li.shadow_soft_size = d["radius"]
-        if d["type"] == "SPOT":
-            li.spot_size, li.spot_blend = d["spot_size"], d["spot_blend"]
-        o = _link(scene, bpy.data.objects.new(d["name"], li))
-        o.location, o.rotation_euler = d["location"], d["rotation"]
+        add_light(scene, d)
 
     c = prm["camera"]
     cam = bpy.data.cameras.new(c["name"])

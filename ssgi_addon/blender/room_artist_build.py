@@ -228,7 +228,7 @@ def _sun_dir(elevation: float, azimuth: float) -> tuple:
 
 def build(prm: dict, scene) -> None:
     """Add the scene of ``prm`` (artist_params) to ``scene`` (room.py build_room cleared it first)."""
-    from .room import _link
+    from .room import _link, add_light
     W, D, H = prm["size"]
     if prm["kind"] == "exterior":
         _object(scene, f"{PREFIX}ground", mesh("plane", f"{PREFIX}ground"),
@@ -254,16 +254,7 @@ def build(prm: dict, scene) -> None:
         _object(scene, d["name"], mesh(d["shape"], d["name"]), material(d["name"], d["material"], d["scale"]),
                 d["location"], d["rotation"], d["scale"])
     for d in prm["lights"]:
-        li = _tag(bpy.data.lights.new(d["name"], d["type"]))
-        li.color, li.energy = d["colour"], d["energy"]
-        if d["type"] == "AREA":
-            li.shape, li.size, li.size_y = d["shape"], d["size"], d["size_y"]
-        else:
-            li.shadow_soft_size = d["radius"]
-        if d["type"] == "SPOT":
-            li.spot_size, li.spot_blend = d["spot_size"], d["spot_blend"]
-        o = _link(scene, bpy.data.objects.new(d["name"], li))
-        o.location, o.rotation_euler = d["location"], d["rotation"]
+        _tag(add_light(scene, d).data)
     if prm["sun"] is not None:
         s = prm["sun"]
         li = _tag(bpy.data.lights.new(f"{PREFIX}light.sun", "SUN"))
