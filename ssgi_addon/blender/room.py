@@ -169,6 +169,19 @@ def _mesh(shape: str, name: str) -> bpy.types.Mesh:
     return me
 
 
+def wall_placements(W: float, D: float, H: float) -> dict:
+    """{wall: (location, rotation, scale)} of the box's six planes (the grid is 2x2 m, scaled), normals
+    pointing into a W x D x H room (both modes)."""
+    return {
+        "floor": ((0, 0, 0), (0, 0, 0), (W / 2, D / 2, 1)),
+        "ceiling": ((0, 0, H), (math.pi, 0, 0), (W / 2, D / 2, 1)),
+        "wall_xn": ((-W / 2, 0, H / 2), (0, math.pi / 2, 0), (H / 2, D / 2, 1)),
+        "wall_xp": ((W / 2, 0, H / 2), (0, -math.pi / 2, 0), (H / 2, D / 2, 1)),
+        "wall_yn": ((0, -D / 2, H / 2), (-math.pi / 2, 0, 0), (W / 2, H / 2, 1)),
+        "wall_yp": ((0, D / 2, H / 2), (math.pi / 2, 0, 0), (W / 2, H / 2, 1)),
+    }
+
+
 def add_light(scene, d: dict) -> bpy.types.Object:
     """A lamp of ``room_params``' light dict ``d`` (point, spot or area) linked into ``scene`` (both modes)."""
     li = bpy.data.lights.new(d["name"], d["type"])
@@ -222,15 +235,7 @@ def build_room(seed: int, scene=None, mode: str = "diffuse"):
         del scene["ssgi_room_mode"]
     W, D, H = prm["size"]
 
-    # the box: six planes (the grid is 2x2 m, scaled), normals pointing into the room
-    placements = {
-        "floor": ((0, 0, 0), (0, 0, 0), (W / 2, D / 2, 1)),
-        "ceiling": ((0, 0, H), (math.pi, 0, 0), (W / 2, D / 2, 1)),
-        "wall_xn": ((-W / 2, 0, H / 2), (0, math.pi / 2, 0), (H / 2, D / 2, 1)),
-        "wall_xp": ((W / 2, 0, H / 2), (0, -math.pi / 2, 0), (H / 2, D / 2, 1)),
-        "wall_yn": ((0, -D / 2, H / 2), (-math.pi / 2, 0, 0), (W / 2, H / 2, 1)),
-        "wall_yp": ((0, D / 2, H / 2), (math.pi / 2, 0, 0), (W / 2, H / 2, 1)),
-    }
+    placements = wall_placements(W, D, H)
     for w in WALLS:
         if w == prm["open_side"]:
             continue

@@ -228,20 +228,13 @@ def _sun_dir(elevation: float, azimuth: float) -> tuple:
 
 def build(prm: dict, scene) -> None:
     """Add the scene of ``prm`` (artist_params) to ``scene`` (room.py build_room cleared it first)."""
-    from .room import _link, add_light
+    from .room import _link, add_light, wall_placements
     W, D, H = prm["size"]
     if prm["kind"] == "exterior":
         _object(scene, f"{PREFIX}ground", mesh("plane", f"{PREFIX}ground"),
                 material(f"{PREFIX}ground", prm["ground"], (W / 2, D / 2, 1.0)), (0, 0, 0), (0, 0, 0),
                 (W / 2, D / 2, 1.0))
-    placements = {
-        "floor": ((0, 0, 0), (0, 0, 0), (W / 2, D / 2, 1)),
-        "ceiling": ((0, 0, H), (math.pi, 0, 0), (W / 2, D / 2, 1)),
-        "wall_xn": ((-W / 2, 0, H / 2), (0, math.pi / 2, 0), (H / 2, D / 2, 1)),
-        "wall_xp": ((W / 2, 0, H / 2), (0, -math.pi / 2, 0), (H / 2, D / 2, 1)),
-        "wall_yn": ((0, -D / 2, H / 2), (-math.pi / 2, 0, 0), (W / 2, H / 2, 1)),
-        "wall_yp": ((0, D / 2, H / 2), (math.pi / 2, 0, 0), (W / 2, H / 2, 1)),
-    }
+    placements = wall_placements(W, D, H)
     for w, d in prm["walls"].items():
         name = f"{PREFIX}room.{w}"
         loc, rot, sc = placements[w]
