@@ -15,9 +15,14 @@ from . import variants
 DEFAULT_MINUTES = 10.0
 
 
+def data_dirs(data) -> list[str]:
+    """``TrainConfig.data`` as a list of folders (it is one folder, or a list: ``cli.py train --data A B``)."""
+    return [str(data)] if isinstance(data, (str, bytes)) or not hasattr(data, "__iter__") else [str(d) for d in data]
+
+
 @dataclass
 class TrainConfig:
-    data: str
+    data: str | list  # a dataset folder, or several that train together (data.load_folders)
     out: str
     variant: str = variants.DEFAULT
     inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)

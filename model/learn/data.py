@@ -11,12 +11,18 @@ and the baseline's fit leave them out (the SSGI node composites the world there)
 Train and validation are split by scene (``split_scenes``): samples of one scene never sit on both sides; or
 by an explicit list of keys (the fit's views of one scene: ``Trainer(split=...)``).
 
+Several folders train together (``load_folders``, ``cli.py train --data A B``): each folder is split by its own
+scenes with the same fraction and seed, so a folder's validation scenes are the ones it has when trained alone,
+and its samples' keys and scenes are prefixed with the folder's name (``artist1/000042``).
+
 ``read_samples`` is the one reader of sample files and ``make_sample`` the one builder of a sample for an input
 spec: ``DatasetFolder.load`` builds each sample as it is read (training); ``StoredSamples`` keeps the stored
 groups to build samples for many specs (the fit).
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import random
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -157,6 +163,10 @@ class DatasetFolder(torch.utils.data.Dataset):
         scenes = set(scenes)
         return [s for s in self.samples if s.scene in scenes]
 
+    def split(self, val_fraction: float, seed: int) -> tuple[list[str], list[str]]:
+        """(train scenes, validation scenes): ``split_scenes`` of this folder's scenes."""
+        return split_scenes(self.scenes, val_fraction, seed)
+
     def identity(self) -> dict:
         """What names this dataset in a checkpoint."""
         return dict(path=str(self.root.resolve()), manifest_sha256=folder.manifest_sha256(self.root),
@@ -164,6 +174,79 @@ class DatasetFolder(torch.utils.data.Dataset):
                     format_version=self.manifest.get("format_version"),
                     blender_version=self.manifest.get("blender_version"),
                     settings=self.manifest.get("settings", {}))
+
+
+@dataclass
+class FolderSet(DatasetFolder):
+    """Several dataset folders as one training set (``load_folders``): ``parts`` are the folders, loaded
+    alone; ``samples`` are theirs with the keys and scenes prefixed ``<tag>/``."""
+    parts: list = field(default_factory=list)
+    tags: list = field(default_factory=list)
+
+    def split(self, val_fraction: float, seed: int) -> tuple[list[str], list[str]]:
+        train, val = [], []
+        for tag, part in zip(self.tags, self.parts):
+            tr, va = part.split(val_fraction, seed)
+            train += [f"{tag}/{s}" for s in tr]
+            val += [f"{tag}/{s}" for s in va]
+        return sorted(train), sorted(val)
+
+    def identity(self) -> dict:
+        parts = [p.identity() for p in self.parts]
+        digest = hashlib.sha256("".join(p["manifest_sha256"] for p in parts).encode()).hexdigest()
+        return dict(path=[p["path"] for p in parts], manifest_sha256=digest, n_samples=len(self.samples),
+                    skipped=dict(self.skipped), folders=parts, tags=list(self.tags))
+
+
+def recorded_split(ident: dict | None, sha: str | None = None, path: str | None = None) -> dict | None:
+    """The split {train, val} (scene lists) that a checkpoint's ``dataset`` record gives the folder with
+    manifest ``sha`` or resolved ``path``: its own split, or, for a model trained on several folders, that
+    folder's part with the ``<tag>/`` prefixes taken off; None when the record names no such folder.
+    ``sha`` and ``path`` both None: the train scenes of every folder, unprefixed (what the model has seen)."""
+    ident = ident or {}
+    split = ident.get("split") or {}
+    if "folders" not in ident:
+        if sha is None and path is None or ident.get("manifest_sha256") == sha or ident.get("path") == path:
+            return dict(train=list(split.get("train") or ()), val=list(split.get("val") or ()))
+        return None
+    tags = ident.get("tags") or []
+    hits = [t for t, part in zip(tags, ident["folders"])
+            if sha is None and path is None or part.get("manifest_sha256") == sha or part.get("path") == path]
+    if not hits:
+        return None
+    pre = tuple(f"{t}/" for t in hits)
+    strip = (lambda names: [n.split("/", 1)[1] for n in names or () if n.startswith(pre)])
+    return dict(train=strip(split.get("train")), val=strip(split.get("val")))
+
+
+def _tags(roots) -> list[str]:
+    """A short unique name per folder: its name, with its parent's when two folders share a name."""
+    names = [r.name or str(r) for r in roots]
+    out = [f"{r.parent.name}.{n}" if names.count(n) > 1 else n for r, n in zip(roots, names)]
+    if len(set(out)) < len(out):
+        raise UserError(f"--data: the same folder is given twice ({', '.join(map(str, roots))})")
+    return out
+
+
+def load_folders(roots, spec=ch.DEFAULT_INPUTS, progress=None, target: str | None = None) -> DatasetFolder:
+    """One folder (a str or a list of one): ``DatasetFolder.load``. Several: a ``FolderSet``. ``target`` None:
+    ``ref_diffuse`` when every folder stores it, else ``ref``."""
+    roots = [Path(roots)] if isinstance(roots, (str, Path)) else [Path(r) for r in roots]
+    if not roots:
+        raise UserError("--data: no dataset folder given")
+    if len(roots) == 1:
+        return DatasetFolder.load(roots[0], spec, progress=progress, target=target)
+    tags = _tags(roots)
+    if target is None:
+        targets = {default_target(folder.open_folder(r, scenes=True)) for r in roots}
+        target = ch.DIFFUSE_TARGET if targets == {ch.DIFFUSE_TARGET} else ch.TARGET_GROUP
+    parts = [DatasetFolder.load(r, spec, progress=progress, target=target) for r in roots]
+    fs = FolderSet(root=roots[0], spec=parts[0].spec, manifest=parts[0].manifest, target=target,
+                   parts=parts, tags=tags)
+    for tag, part in zip(tags, parts):
+        fs.samples += [dataclasses.replace(s, key=f"{tag}/{s.key}", scene=f"{tag}/{s.scene}") for s in part.samples]
+        fs.skipped.update({f"{tag}/{k}": why for k, why in part.skipped.items()})
+    return fs
 
 
 class StoredSamples:

@@ -50,7 +50,7 @@ import torch
 
 from .. import channels as ch
 from . import checkpoint, curves, data, network
-from .config import DEFAULT_MINUTES, TrainConfig
+from .config import DEFAULT_MINUTES, TrainConfig, data_dirs
 from .validation import evaluate, geometry
 from .. import files, normalize
 from ..errors import UserError
@@ -115,8 +115,8 @@ class Trainer:
             torch.set_num_threads(cfg.threads)
         spec = ch.parse_spec(cfg.inputs)
         if self.dataset is None:
-            self.log(f"loading {cfg.data} ...")
-            self.dataset = data.DatasetFolder.load(cfg.data, spec, target=cfg.target)
+            self.log(f"loading {', '.join(map(str, data_dirs(cfg.data)))} ...")
+            self.dataset = data.load_folders(cfg.data, spec, target=cfg.target)
         ds = self.dataset
         if cfg.target is not None and cfg.target != ds.target:
             raise UserError(f"the dataset was loaded for target {ds.target}, training wants {cfg.target}")
@@ -129,10 +129,11 @@ class Trainer:
             self.log(f"repaired {ds.repaired} non-finite input pixel(s) (NaN->0, Inf->65504 / background)")
         ident = ds.identity()
         if resume is not None and resume["dataset"].get("manifest_sha256") != ident["manifest_sha256"]:
-            raise UserError(f"{self.last}: was trained on another dataset (manifest differs from {cfg.data}/manifest.json); "
-                            "train without --resume or point --data at the original dataset")
+            raise UserError(f"{self.last}: was trained on another dataset (the manifest of "
+                            f"{', '.join(map(str, data_dirs(cfg.data)))} differs); train without --resume or point "
+                            "--data at the original dataset(s), in the same order")
         if self.split is None:
-            train_sc, val_sc = data.split_scenes(ds.scenes, cfg.val_fraction, cfg.seed)
+            train_sc, val_sc = ds.split(cfg.val_fraction, cfg.seed)
             self.train_set, self.val_set = ds.subset(train_sc), ds.subset(val_sc)
             split = dict(train=train_sc, val=val_sc, val_fraction=cfg.val_fraction, seed=cfg.seed)
         else:
@@ -400,7 +401,7 @@ class Trainer:
                      + ("  *best" if improved else ""))
             cb(self._state("epoch", self._progress(self.epoch), entry["loss"]))
         if self.history:
-            curves.curve_png(self.history, checkpoint.curve_path(self.out), f"{cfg.variant} on {Path(cfg.data).name}")
+            curves.curve_png(self.history, checkpoint.curve_path(self.out), f"{cfg.variant} on {' + '.join(Path(d).name for d in data_dirs(cfg.data))}")
         summary = dict(status=status, model=str(self.out), last=str(self.last), epochs=self.epoch, step=self.step,
                        minutes=self.elapsed / 60, best=self.best, skipped_steps=self.skipped, lr_drops=self.lr_drops,
                        params=network.count_params(self.net), variant=cfg.variant, left_out=list(self.quarantine),

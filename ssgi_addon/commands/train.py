@@ -29,7 +29,7 @@ def run_train(args) -> dict:
 
     from ..pipeline import learn
 
-    cfg = TrainConfig(data=args.data, out=args.out, variant=args.variant, inputs=args.inputs,
+    cfg = TrainConfig(data=str(args.data[0]) if len(args.data) == 1 else [str(d) for d in args.data], out=args.out, variant=args.variant, inputs=args.inputs,
                       arch=_arch_overrides(args.arch), minutes=args.minutes, epochs=args.epochs, resume=args.resume,
                       optimizer=args.optimizer, lr=args.lr, clip=args.clip, batch=args.batch, crop=args.crop,
                       crops_per_image=args.crops_per_image, early_stop=args.early_stop, threads=args.threads,
@@ -91,7 +91,9 @@ def register_cli(sub) -> None:
                        description="Train a network on a dataset folder. MODEL is the best checkpoint so far "
                                    "(by validation PSNR); MODEL.last.pt beside it is the resume point; "
                                    "MODEL.curve.png the learning curve.")
-    p.add_argument("--data", required=True, metavar="DIR", help="dataset folder (manifest.json + EXR samples)")
+    p.add_argument("--data", required=True, nargs="+", metavar="DIR",
+                   help="dataset folder (manifest.json + EXR samples); several train together, each split "
+                        "into train/validation by its own scenes")
     p.add_argument("--out", required=True, metavar="MODEL", help="checkpoint to write (e.g. models/ssgi.pt)")
     p.add_argument("--variant", default=T.variant, choices=variants.TRAINABLE,
                    help=f"network variant (default {T.variant})")

@@ -112,9 +112,8 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     else:
         sha = dataset.manifest_sha256(root)
         here = str(root.resolve())
-        vals = [set((ck.get("dataset") or {}).get("split", {}).get("val") or ()) for ck in model_ckpts
-                if (ck.get("dataset") or {}).get("manifest_sha256") == sha or (ck.get("dataset") or {}).get("path") == here]
-        vals = [v & set(by_scene) for v in vals if v & set(by_scene)]
+        recs = [data.recorded_split(ck.get("dataset"), sha, here) for ck in model_ckpts]
+        vals = [set(r["val"]) & set(by_scene) for r in recs if r and set(r["val"]) & set(by_scene)]
         chosen = None
         if vals:
             common = set.intersection(*vals)
@@ -133,7 +132,7 @@ def dataset_scenes(data_dir, model_ckpts=(), max_scenes: int | None = None, spli
     # twice): leave out every scene that any given model trained on
     trained = set()
     for ck in model_ckpts:
-        trained |= set(((ck.get("dataset") or {}).get("split") or {}).get("train") or ())
+        trained |= set((data.recorded_split(ck.get("dataset")) or {}).get("train") or ())
     seen = [sc for sc in chosen if sc in trained]
     if seen and len(seen) < len(chosen):
         chosen = [sc for sc in chosen if sc not in trained]
