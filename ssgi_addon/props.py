@@ -16,7 +16,9 @@ from .pipeline.report import ReportConfig as _Report
 
 ROOM_MODES = [("diffuse", "Diffuse", "A box of diffuse primitives lit by lamps (the seed's rooms)"),
               ("artist", "Artist", "Principled, metal, glass and textured materials, emissive lights, skies, "
-                                   "open rooms and exteriors (docs/artist_rooms.md)")]
+                                   "open rooms and exteriors (docs/artist_rooms.md)"),
+              ("studio", "Studio", "A cyclorama in a dark stage lit by softboxes, metal and glass props "
+                                   "(docs/artist_rooms.md)")]
 
 
 class SSGI_SceneSettings(bpy.types.PropertyGroup):

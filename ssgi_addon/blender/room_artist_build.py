@@ -1,5 +1,6 @@
-"""Build an artist-mode scene (room_artist.py ``artist_params``) with bpy: Principled materials with node
-textures or generated images, emissive fixtures, walls with windows, a ground, Sky/gradient worlds, a sun.
+"""Build an artist-mode scene (room_artist.py ``artist_params``) or a studio (room_studio.py ``studio_params``)
+with bpy: Principled materials with node textures or generated images, emissive fixtures, walls with windows, a
+ground or a cyclorama, Sky/gradient/uniform worlds, a sun.
 
 Every datablock it adds is named with ``PREFIX`` and carries ``ssgi_room`` (room.py ``clear_room`` removes
 objects, meshes, materials, lights, cameras, worlds and images so marked).
@@ -55,6 +56,26 @@ def window_hole(wall: str, hole) -> tuple:
     u0, u1, v0, v1 = hole
     return {"wall_yp": (u0, u1, v0, v1), "wall_yn": (u0, u1, -v1, -v0),
             "wall_xp": (v0, v1, u0, u1), "wall_xn": (-v1, -v0, u0, u1)}[wall]
+
+
+def cyclorama_mesh(name: str, c: dict, segments: int = 16) -> bpy.types.Mesh:
+    """A studio cyclorama (room_studio.py): a floor from y = front to the cove, a quarter circle of ``radius``
+    up to a back wall at y = back, ``height`` tall, ``width`` wide (centred on x = 0); smooth-shaded."""
+    r, yb, w = c["radius"], c["back"], c["width"] / 2
+    yc = yb - r
+    prof = [(c["front"], 0.0), (yc, 0.0)]
+    prof += [(yc + r * math.sin(a), r - r * math.cos(a)) for a in (math.pi / 2 * i / segments for i in range(1, segments + 1))]
+    prof += [(yb, c["height"])]
+    bm = bmesh.new()
+    rows = [[bm.verts.new((x, y, z)) for y, z in prof] for x in (-w, w)]
+    for i in range(len(prof) - 1):
+        bm.faces.new((rows[0][i], rows[1][i], rows[1][i + 1], rows[0][i + 1]))
+    me = bpy.data.meshes.new(name)
+    bm.to_mesh(me)
+    bm.free()
+    for poly in me.polygons:
+        poly.use_smooth = True
+    return _tag(me)
 
 
 def _image(name: str, t: dict, base, res: int = 128) -> bpy.types.Image:
@@ -171,6 +192,9 @@ def _world(scene, prm) -> None:
     if d["type"] == "black":
         bg.inputs["Color"].default_value, bg.inputs["Strength"].default_value = (0, 0, 0, 1), 0.0
         w.color = (0.0, 0.0, 0.0)
+    elif d["type"] == "colour":  # a studio's dim stage (room_studio.py)
+        bg.inputs["Color"].default_value, bg.inputs["Strength"].default_value = (*d["colour"], 1.0), d["strength"]
+        w.color = tuple(c * d["strength"] for c in d["colour"])
     elif d["type"] == "sky":
         sky = nodes.new("ShaderNodeTexSky")
         sky.sky_type = d["sky"]
@@ -234,6 +258,10 @@ def build(prm: dict, scene) -> None:
         _object(scene, f"{PREFIX}ground", mesh("plane", f"{PREFIX}ground"),
                 material(f"{PREFIX}ground", prm["ground"], (W / 2, D / 2, 1.0)), (0, 0, 0), (0, 0, 0),
                 (W / 2, D / 2, 1.0))
+    if prm.get("cyclorama"):
+        c = prm["cyclorama"]
+        _object(scene, c["name"], cyclorama_mesh(c["name"], c), material(c["name"], c["material"]),
+                (0, 0, 0), (0, 0, 0), (1, 1, 1))
     placements = wall_placements(W, D, H)
     for w, d in prm["walls"].items():
         name = f"{PREFIX}room.{w}"
