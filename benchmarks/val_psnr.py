@@ -25,6 +25,7 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--target", default=ch.TARGET_GROUP, choices=ch.TARGETS)
     ap.add_argument("--split", default="all", choices=("val", "all"),
                     help="all samples, or the validation scenes of data.split_scenes(0.2, seed 0)")
+    ap.add_argument("--per-sample", action="store_true", help="also one line per sample (its scene named)")
     a = ap.parse_args(argv)
     stored = data.StoredSamples(a.data)
     keys = sorted(stored.raw)
@@ -35,7 +36,12 @@ def main(argv=None) -> list[dict]:
     for path in a.models:
         ck = checkpoint.load(path)
         net = checkpoint.build_net(ck, path)
-        ev = validation.evaluate(net, stored.samples(tuple(ck["inputs"]), keys, target=a.target))
+        smp = stored.samples(tuple(ck["inputs"]), keys, target=a.target)
+        ev = validation.evaluate(net, smp)
+        if a.per_sample:
+            for sm in smp:
+                one = validation.evaluate(net, [sm])
+                print(json.dumps(dict(model=path, key=sm.key, scene=sm.scene, psnr=round(one["val_psnr"], 3))))
         row = dict(model=path, samples=len(keys), target=a.target, **{k: round(v, 4) for k, v in ev.items()})
         print(json.dumps(row), flush=True)
         out.append(row)
