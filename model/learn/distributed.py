@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import datetime
 import os
+import signal
+import threading
 from dataclasses import dataclass, field
 
 import torch
@@ -64,6 +66,18 @@ class Dist:
         first = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
         raise LostRank(f"rank {self.rank} of {self.world}: lost contact with the other processes during {what} "
                        f"(another rank died or hung: {first}); stopped.{self.note}") from None
+
+    COMM_WORDS = ("gloo", "nccl", "connection", "closed", "timed out", "timeout", "peer", "socket")
+
+    def backward(self, loss: torch.Tensor) -> None:
+        """``loss.backward()``; under DDP the gradient exchange runs inside it, so a lost peer surfaces here."""
+        try:
+            loss.backward()
+        except RuntimeError as e:
+            if self.active and (isinstance(e, getattr(torch.distributed, "DistError", ()))
+                                or any(w in str(e).lower() for w in self.COMM_WORDS)):
+                self._fail("the gradient exchange", e)
+            raise
 
     def sum_(self, t: torch.Tensor, what: str = "a step") -> torch.Tensor:
         """All-reduce ``t`` (sum) in place; the identity in one process."""
@@ -130,6 +144,12 @@ def setup(device_wanted: str = "auto") -> tuple[Dist, torch.device]:
                         f"{os.environ['MASTER_ADDR']}:{os.environ['MASTER_PORT']}: {first})") from None
     d = Dist(rank=rank, world=world, local_rank=local)
     d.device = device if backend == "nccl" else torch.device("cpu")  # where small collective tensors live
+    if threading.current_thread() is threading.main_thread():
+        def on_term(signum, frame):  # torchrun ends the other ranks with SIGTERM when one fails
+            signal.signal(signum, signal.SIG_DFL)
+            raise LostRank(f"rank {d.rank} of {d.world}: stopped by the launcher (signal {signum}; another process "
+                           f"of this run ended, see torchrun's report).{d.note}")
+        signal.signal(signal.SIGTERM, on_term)
     return d, device
 
 

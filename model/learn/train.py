@@ -353,7 +353,7 @@ class Trainer:
         if self.good_losses % SNAPSHOT_EVERY == 0:  # weights that just gave a sane loss
             self._snapshot()
         self.opt.zero_grad(set_to_none=True)
-        loss.backward()
+        self.dist.backward(loss)
         gn = torch.nn.utils.clip_grad_norm_(self.net.parameters(), self.clip if self.clip else float("inf"))
         if not torch.isfinite(gn):
             self._bad_step("non-finite gradient")
@@ -445,6 +445,8 @@ class Trainer:
                 since_best += 1
             if self.dist.main:
                 self._save(improved)
+            self.dist.note = (f" The last good checkpoint {self.last} (epoch {self.epoch}) is kept; continue with "
+                              "--resume (any process count).")
             self.log(f"epoch {self.epoch}: loss {entry['loss']:.5f}  val PSNR {ev['val_psnr']:.2f} dB "
                      f"(tm {ev['val_tm_psnr']:.2f}, SSIM {ev['val_ssim']:.3f})  {self.elapsed / 60:.2f} min"
                      + ("  *best" if improved else ""))
