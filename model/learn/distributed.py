@@ -160,6 +160,6 @@ def check_same(dist: Dist, mine: dict, what: str) -> None:
     for r, theirs in enumerate(dist.gather(mine, f"the check of the ranks' {what}")):
         for k in sorted(set(mine) | set(theirs)):
             if theirs.get(k) != mine.get(k):
-                raise UserError(f"rank {r} of {dist.world} has another {what} than rank {dist.rank} ({k}: "
+                raise UserError(f"rank {r} of {dist.world} was started with other {what} than rank {dist.rank} ({k}: "
                                 f"{theirs.get(k)!r} vs {mine.get(k)!r}); start every process with the same command "
                                 f"and the same dataset")

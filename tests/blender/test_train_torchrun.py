@@ -122,3 +122,27 @@ def test_a_killed_rank_stops_the_run_with_a_message_keeps_the_checkpoint_and_one
     assert [h["epoch"] for h in _last(out)["history"]] == list(range(1, k + 2))
 
 
+
+
+def test_two_node_launch_with_different_settings_is_refused_before_training(tmp_path, ds):
+    """The two-node command of docs/training_distributed.md, both "nodes" on this machine; node 1 was given
+    another --lr: every rank refuses, naming the setting, and nothing is written."""
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = str(s.getsockname()[1])
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    out = tmp_path / "n.pt"
+
+    def node(rank, *more):
+        return subprocess.Popen([sys.executable, "-m", "torch.distributed.run", "--nnodes", "2", "--node_rank", str(rank),
+                                 "--nproc_per_node", "1", "--master_addr", "127.0.0.1", "--master_port", port,
+                                 str(ROOT / "cli.py"), "train", *_args(ds, out, 2, *more)],
+                                cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+    procs = [node(0), node(1, "--lr", "0.002")]
+    texts = [p.communicate(timeout=180)[0] for p in procs]
+    assert all(p.returncode != 0 for p in procs)
+    assert "cli.py train: error: rank 1 of 2 was started with other settings than rank 0 (lr: 0.002 vs None)" in texts[0]
+    assert "cli.py train: error: rank 0 of 2 was started with other settings than rank 1 (lr: None vs 0.002)" in texts[1]
+    assert not out.exists() and not checkpoint.last_path(out).exists()
