@@ -146,3 +146,20 @@ def test_two_node_launch_with_different_settings_is_refused_before_training(tmp_
     assert "cli.py train: error: rank 1 of 2 was started with other settings than rank 0 (lr: 0.002 vs None)" in texts[0]
     assert "cli.py train: error: rank 0 of 2 was started with other settings than rank 1 (lr: None vs 0.002)" in texts[1]
     assert not out.exists() and not checkpoint.last_path(out).exists()
+
+
+def test_gpu_train_benchmark_cpu_path(tmp_path):
+    """benchmarks/gpu_train.py on CPU (the path a GPU session runs with --device cuda): 1 and 2 processes on the
+    same global batch give the same validation PSNRs and a throughput each."""
+    import json
+    out = tmp_path / "rows.json"
+    p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "gpu_train.py"), "--device", "cpu", "--nproc", "1", "2",
+                        "--threads", "2", "--samples", "6", "--size", "48x32", "--crop", "16", "--batch", "4",
+                        "--epochs", "2", "--amp", "off", "--target-psnr", "1", "--out", str(out)],
+                       capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert p.returncode == 0, p.stderr[-3000:]
+    one, two = json.loads(out.read_text())
+    assert (one["nproc"], two["nproc"]) == (1, 2) and one["steps"] == two["steps"] > 0
+    assert one["samples_per_s"] > 0 and two["samples_per_s"] > 0 and two["threads_per_process"] == 1
+    assert all(abs(a - b) < PSNR_TOL_DB for a, b in zip(one["val_psnr"], two["val_psnr"]))
+    assert one["minutes_to_target"] is not None  # 1 dB: reached at epoch 1
