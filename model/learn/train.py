@@ -2,16 +2,22 @@
 
 Used by ``cli.py train`` and by the Blender "Train" operator's worker thread (it never touches bpy).
 
-Why this module stays whole (~430 lines): it is the training loop (its config and one class), whose resume state, lr
+Why this module stays whole (~480 lines): it is the training loop (its config and one class), whose resume state, lr
 schedule, NaN guard and checkpoints share the same fields (step, epoch, snapshot, lr scale, quarantine) and one
 invariant (a resumed run equals an uninterrupted one); split, those fields would be written in one module and
 read in another. What is not the loop is elsewhere: validation metrics (validation.py), learning curves
-(curves.py), checkpoints (checkpoint.py), samples (data.py).
+(curves.py), checkpoints (checkpoint.py), samples (data.py), the epoch plan, crops, loader workers and the
+sample cache (batches.py), the processes under torchrun and their collectives (distributed.py).
 
-- Data: the whole dataset folder in memory (data.DatasetFolder); train/validation split by scene
-  (data.split_scenes, seeded), recorded in the checkpoint.
+- Data: the whole dataset folder in memory (data.DatasetFolder), or read on demand through a bounded cache
+  (``cache_mb``, batches.load_lazy); train/validation split by scene (data.split_scenes, seeded), recorded in
+  the checkpoint.
+- Processes: one, or N under ``torchrun`` (DistributedDataParallel; docs/training_distributed.md): ``batch`` is
+  the global batch, every rank draws the same seeded plan and trains on its share, the loss is normalised by the
+  global pixel count, every guard decides on all-reduced values, rank 0 validates and writes the checkpoints.
+  Device: ``device`` (CUDA when present), ``amp`` (bf16 autocast of the forward pass on CUDA).
 - Batches: random ``crop`` x ``crop`` crops of training images, each mirrored left-right with p = 0.5
-  (normalize.flip_x negates normal.x). One epoch = ``crops_per_image`` crops of every training image
+  (normalize.flip_x negates normal.x), drawn for the whole epoch at its start (batches.plan). One epoch = ``crops_per_image`` crops of every training image
   (default: image area / crop area, so an epoch sees about as many pixels as the training set has).
 - Loss: mean squared error in log1p space, ``mean((net(x) - log1p(ref))^2)`` over the geometry pixels
   (data.Sample.mask; where nothing was hit the world shows, which no input describes): log1p compresses

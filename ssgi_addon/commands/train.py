@@ -37,7 +37,9 @@ def run_train(args) -> dict:
                       seed=args.seed, val_fraction=args.val_fraction, target=args.target, init=args.init,
                       device=args.device, amp=args.amp, workers=args.workers, cache_mb=args.cache_mb,
                       command=command_line())
-    rank0 = os.environ.get("RANK", "0") == "0"  # under torchrun rank 0 reports
+    rank0 = os.environ.get("RANK", "0") == "0"  # under torchrun rank 0 reports (progress, --json)
+    if not rank0:
+        args.json = False
     bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet or not rank0, bar_format="{l_bar}{bar}| {postfix}")
 
     def cb(d):
