@@ -67,6 +67,50 @@ def one_run(data, out, nproc, device, amp, a) -> dict:
                 minutes_to_target=round(hit["minutes"], 3) if hit else None, train_minutes=round(h[-1]["minutes"], 3))
 
 
+def step_bench(device: str, a) -> dict:
+    """The network's training step alone (forward, loss, backward, Adam) on random crops, float32 against bf16
+    autocast, interleaved repetitions in one process: the mixed-precision ratio without data loading."""
+    import statistics
+    import time
+
+    import torch
+
+    from ssgi.model import channels as ch
+    from ssgi.model.learn import network
+    if a.threads:
+        torch.set_num_threads(a.threads)
+    spec = ch.parse_spec(a.inputs) if a.inputs else ch.DEFAULT_INPUTS
+    dev = torch.device(device)
+    net = network.build(network.arch_for(a.variant, spec, target=ch.DIFFUSE_TARGET)).to(dev, memory_format=torch.channels_last)
+    x = torch.randn(a.batch, ch.input_channels(spec), a.crop, a.crop, device=dev).contiguous(memory_format=torch.channels_last)
+    opt = torch.optim.Adam(net.parameters())
+
+    def step(bf16: bool) -> float:
+        if dev.type == "cuda":
+            torch.cuda.synchronize()
+        t = time.perf_counter()
+        with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=bf16):
+            out = net(x)
+        loss = (out.float() ** 2).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        if dev.type == "cuda":
+            torch.cuda.synchronize()
+        return time.perf_counter() - t
+
+    for bf16 in (False, True, False, True):
+        step(bf16)
+    times = {False: [], True: []}
+    for _ in range(a.step_repeats):
+        for bf16 in (False, True):
+            times[bf16].append(step(bf16))
+    fp, bf = statistics.median(times[False]), statistics.median(times[True])
+    return dict(step_bench=True, device=device, variant=a.variant, batch=a.batch, crop=a.crop, threads=a.threads,
+                fp32_ms=round(fp * 1000, 2), bf16_ms=round(bf * 1000, 2), bf16_over_fp32=round(bf / fp, 3),
+                fp32_samples_per_s=round(a.batch / fp, 1), bf16_samples_per_s=round(a.batch / bf, 1))
+
+
 def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", help="dataset folder (default: a synthetic one)")
@@ -86,8 +130,15 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--epochs", type=int, default=None)
     ap.add_argument("--minutes", type=float, default=2.0, help="budget per run when --epochs is not given")
     ap.add_argument("--target-psnr", type=float, default=SHIPPED_PSNR)
+    ap.add_argument("--step-bench", action="store_true",
+                    help="first time the network's step alone, float32 against bf16 autocast (medians)")
+    ap.add_argument("--step-repeats", type=int, default=12)
     ap.add_argument("--out", help="also write the rows as JSON here")
     a = ap.parse_args(argv)
+    rows = []
+    if a.step_bench:
+        rows.append(step_bench(a.device, a))
+        print(json.dumps(rows[-1]), flush=True)
     with tempfile.TemporaryDirectory(prefix="ssgi-gpu-train-") as tmp:
         data = a.data
         if not data:
@@ -95,7 +146,6 @@ def main(argv=None) -> list[dict]:
             w, h = (int(v) for v in a.size.lower().split("x"))
             data = synthetic.make_dataset(Path(tmp) / "syn", scenes=max(2, a.samples // 2), per_scene=2, w=w, h=h,
                                           seed=3)
-        rows = []
         for amp in a.amp:
             for n in a.nproc:
                 row = one_run(data, Path(tmp) / f"m{n}{amp}.pt", n, a.device, amp, a)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import datetime
 import os
+import re
 import signal
 import threading
 from dataclasses import dataclass, field
@@ -46,6 +47,14 @@ def pick_device(want: str = "auto", local_rank: int = 0) -> torch.device:
     return torch.device("cuda", local_rank)
 
 
+def _first_sentence(e: Exception) -> str:
+    """The gist of a backend error: gloo's "[/path/pair.cc:537] Read error [127.0.0.1]:38296: Connection reset by
+    peer. This is typically caused by ..." -> "Read error [127.0.0.1]:38296: Connection reset by peer"."""
+    text = (str(e).strip().splitlines() or [type(e).__name__])[0]
+    text = re.sub(r"^\[[^\]]*\]\s*", "", text)
+    return text.split(". ")[0][:200]
+
+
 @dataclass
 class Dist:
     rank: int = 0
@@ -63,7 +72,7 @@ class Dist:
         return self.rank == 0
 
     def _fail(self, what: str, e: Exception):
-        first = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+        first = _first_sentence(e)
         raise LostRank(f"rank {self.rank} of {self.world}: lost contact with the other processes during {what} "
                        f"(another rank died or hung: {first}); stopped.{self.note}") from None
 
@@ -79,7 +88,7 @@ class Dist:
                 self._fail("the gradient exchange", e)
             raise
 
-    def sum_(self, t: torch.Tensor, what: str = "a step") -> torch.Tensor:
+    def sum_(self, t: torch.Tensor, what: str = "the loss exchange of a step") -> torch.Tensor:
         """All-reduce ``t`` (sum) in place; the identity in one process."""
         if self.active:
             try:
@@ -87,11 +96,6 @@ class Dist:
             except (RuntimeError, ValueError) as e:
                 self._fail(what, e)
         return t
-
-    def any_(self, flag: bool, what: str = "a step") -> bool:
-        if not self.active:
-            return bool(flag)
-        return bool(self.sum_(torch.tensor([1.0 if flag else 0.0], device=self.device), what)[0] > 0)
 
     def gather(self, obj, what: str) -> list:
         """Every rank's ``obj`` (picklable), in rank order; ``[obj]`` in one process."""
@@ -139,7 +143,7 @@ def setup(device_wanted: str = "auto") -> tuple[Dist, torch.device]:
     try:
         torch.distributed.init_process_group(backend, rank=rank, world_size=world, timeout=TIMEOUT)
     except (RuntimeError, ValueError) as e:
-        first = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+        first = _first_sentence(e)
         raise UserError(f"rank {rank} of {world}: could not join the other processes ({backend} at "
                         f"{os.environ['MASTER_ADDR']}:{os.environ['MASTER_PORT']}: {first})") from None
     d = Dist(rank=rank, world=world, local_rank=local)

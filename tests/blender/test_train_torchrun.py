@@ -149,17 +149,17 @@ def test_two_node_launch_with_different_settings_is_refused_before_training(tmp_
 
 
 def test_gpu_train_benchmark_cpu_path(tmp_path):
-    """benchmarks/gpu_train.py on CPU (the path a GPU session runs with --device cuda): 1 and 2 processes on the
-    same global batch give the same validation PSNRs and a throughput each."""
+    """benchmarks/gpu_train.py on CPU (the path a GPU session runs with --device cuda): the step bench (float32
+    against bf16 autocast) and one training run, with a throughput and the minutes to a PSNR (1 vs 2 processes
+    is the first test's)."""
     import json
     out = tmp_path / "rows.json"
-    p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "gpu_train.py"), "--device", "cpu", "--nproc", "1", "2",
-                        "--threads", "2", "--samples", "6", "--size", "48x32", "--crop", "16", "--batch", "4",
-                        "--epochs", "2", "--amp", "off", "--target-psnr", "1", "--out", str(out)],
-                       capture_output=True, text=True, timeout=300, cwd=ROOT)
+    p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "gpu_train.py"), "--device", "cpu", "--nproc", "1",
+                        "--threads", "1", "--samples", "6", "--size", "48x32", "--crop", "16", "--batch", "4",
+                        "--epochs", "2", "--amp", "off", "--target-psnr", "1", "--step-bench", "--step-repeats", "2",
+                        "--out", str(out)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert p.returncode == 0, p.stderr[-3000:]
-    one, two = json.loads(out.read_text())
-    assert (one["nproc"], two["nproc"]) == (1, 2) and one["steps"] == two["steps"] > 0
-    assert one["samples_per_s"] > 0 and two["samples_per_s"] > 0 and two["threads_per_process"] == 1
-    assert all(abs(a - b) < PSNR_TOL_DB for a, b in zip(one["val_psnr"], two["val_psnr"]))
-    assert one["minutes_to_target"] is not None  # 1 dB: reached at epoch 1
+    bench, run = json.loads(out.read_text())
+    assert bench["fp32_ms"] > 0 and bench["bf16_ms"] > 0 and bench["bf16_over_fp32"] > 0
+    assert run["nproc"] == 1 and run["steps"] > 0 and run["samples_per_s"] > 0 and run["samples_per_cpu_s"] > 0
+    assert len(run["val_psnr"]) == 2 and run["minutes_to_target"] is not None  # 1 dB: reached at epoch 1
