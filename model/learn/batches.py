@@ -172,7 +172,14 @@ def hw(s) -> tuple[int, int]:
 
 
 def load_lazy(root, spec, cache_mb: float, target: str | None = None) -> data.DatasetFolder:
-    """A DatasetFolder of LazySamples sharing one SampleCache of ``cache_mb`` MB; sizes from the manifest."""
+    """A DatasetFolder of LazySamples sharing one SampleCache of ``cache_mb`` MB; sizes from the manifest.
+    ``root``: one folder (or a list of one; several folders are read in memory only, for now)."""
+    if not isinstance(root, (str, Path)):
+        roots = list(root)
+        if len(roots) != 1:
+            raise UserError(f"--cache-mb reads one --data folder (got {len(roots)}); merge the folders' samples "
+                            "into one (cli.py merge) or train them in memory without --cache-mb")
+        root = roots[0]
     root = Path(root)
     spec = ch.parse_spec(spec)
     m = folder.open_folder(root, scenes=True)
