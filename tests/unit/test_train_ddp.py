@@ -57,3 +57,27 @@ def test_device_choice():
         assert distributed.pick_device("auto").type == "cpu"
         with pytest.raises(UserError, match="--device cuda: torch sees no CUDA device"):
             distributed.pick_device("cuda")
+
+
+def test_the_plan_is_one_for_every_process_count_and_the_shares_partition_it():
+    import torch as t
+    sizes = [(24, 40)] * 5 + [(30, 20)] * 3
+    a = batches.plan(t.Generator().manual_seed(3), sizes, 2, 5, (16, 16))
+    b = batches.plan(t.Generator().manual_seed(3), sizes, 2, 5, (16, 16))
+    assert a == b and len(a) == 4 and sum(map(len, a)) == 16 and sorted(s[0] for g in a for s in g) == sorted(list(range(8)) * 2)
+    assert all(0 <= y0 <= sizes[i][0] - 16 and 0 <= x0 <= sizes[i][1] - 16 for g in a for i, y0, x0, _ in g)
+    for w in (1, 2, 3):
+        shares = [batches.share(a, r, w) for r in range(w)]
+        for k, g in enumerate(a):  # every crop of a global batch goes to exactly one rank, in order
+            assert sorted(c for r in range(w) for c in shares[r][k]) == sorted(g)
+    assert batches.share(a, 1, 2)[-1] == a[-1][1::2]
+
+
+def test_a_backend_error_is_cut_to_its_gist():
+    e = RuntimeError("[/__w/pytorch/pytorch/third_party/gloo/gloo/transport/tcp/pair.cc:537] Read error "
+                     "[127.0.0.1]:38296: Connection reset by peer. This is typically caused by a remote worker hanging")
+    assert distributed._first_sentence(e) == "Read error [127.0.0.1]:38296: Connection reset by peer"
+    d = distributed.Dist(rank=1, world=2, note=" The last good checkpoint m.last.pt is kept.")
+    with pytest.raises(distributed.LostRank, match=r"^rank 1 of 2: lost contact .* during x \(another rank died or "
+                                                   r"hung: Read error .*peer\); stopped\. The last good checkpoint"):
+        d._fail("x", e)
