@@ -7,9 +7,10 @@ one process and for N processes under torchrun, on CUDA or CPU, with and without
 Each configuration is one ``cli.py train`` run (``torchrun --standalone --nproc_per_node N`` for N > 1) with the
 same global batch; the numbers come from its checkpoint history (``minutes`` counts training batches, not
 validation): samples/s over epochs 2.. (epoch 1 holds start-up, CUDA init and kernel autotuning), and samples
-per CPU second (rank 0's process CPU time, validation included, times the process count: the fairer number on a
-loaded machine); minutes to ``--target-psnr``: the first epoch whose validation PSNR reaches it (default 26.82 dB, the shipped model's on its
-artist bake, /work/data/artist1: meaningful only on that dataset with its inputs). Without ``--data`` a synthetic
+per CPU second (rank 0's process CPU time, validation included, loader workers not, times the process count:
+the fairer number on a loaded machine); minutes to ``--target-psnr``: the first epoch whose validation PSNR reaches it (default
+26.82 dB, the shipped model's on its artist bake, /work/data/artist1: meaningful only on that dataset with its
+inputs). Without ``--data`` a synthetic
 set (model/dataset/synthetic.py) of ``--samples`` at ``--size`` is made in a temporary folder. With several
 processes on CPU each gets ``--threads`` / N threads, so the cores are the same. Prints one JSON line per run
 and, with ``--out``, writes them all.

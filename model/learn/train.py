@@ -17,8 +17,9 @@ sample cache (batches.py), the processes under torchrun and their collectives (d
   global pixel count, every guard decides on all-reduced values, rank 0 validates and writes the checkpoints.
   Device: ``device`` (CUDA when present), ``amp`` (bf16 autocast of the forward pass on CUDA).
 - Batches: random ``crop`` x ``crop`` crops of training images, each mirrored left-right with p = 0.5
-  (normalize.flip_x negates normal.x), drawn for the whole epoch at its start (batches.plan). One epoch = ``crops_per_image`` crops of every training image
-  (default: image area / crop area, so an epoch sees about as many pixels as the training set has).
+  (normalize.flip_x negates normal.x), drawn for the whole epoch at its start (batches.plan). One epoch =
+  ``crops_per_image`` crops of every training image (default: image area / crop area, so an epoch sees about as
+  many pixels as the training set has).
 - Loss: mean squared error in log1p space, ``mean((net(x) - log1p(ref))^2)`` over the geometry pixels
   (data.Sample.mask; where nothing was hit the world shows, which no input describes): log1p compresses
   bright lights (1e3 -> 6.9) so they do not dominate, and is close to linear for the [0, 1] range the PSNR
