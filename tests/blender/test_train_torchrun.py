@@ -163,3 +163,46 @@ def test_gpu_train_benchmark_cpu_path(tmp_path):
     assert bench["fp32_ms"] > 0 and bench["bf16_ms"] > 0 and bench["bf16_over_fp32"] > 0
     assert run["nproc"] == 1 and run["steps"] > 0 and run["samples_per_s"] > 0 and run["samples_per_cpu_s"] > 0
     assert len(run["val_psnr"]) == 2 and run["minutes_to_target"] is not None  # 1 dB: reached at epoch 1
+
+
+POISON = '''
+import json, sys
+sys.path.insert(0, {root!r})
+import cli
+cli.load_package()
+from ssgi.model.learn import data
+from ssgi.model.learn.train import TrainConfig, Trainer
+ds = data.DatasetFolder.load({data!r})
+victim = ds.subset(data.split_scenes(ds.scenes, 0.2, 1)[0])[0]
+victim.y[1].fill_(float("nan"))  # a broken sample in memory (the loader would have left it out)
+cfg = TrainConfig(data={data!r}, out={out!r}, variant="unet_s", epochs=2, crop=16, batch=4, crops_per_image=2, seed=1,
+                  threads=1, command="test")
+msgs = []
+res = Trainer(cfg, dataset=ds, log=msgs.append).run()
+print(json.dumps(dict(rank=res["rank"], left_out=res["left_out"], step=res["step"], victim=victim.key,
+                      logged=any(victim.key in m and "left out" in m for m in msgs))))
+'''
+
+
+def test_a_sample_found_broken_on_one_rank_is_left_out_on_all_as_in_one_process(tmp_path, ds):
+    """The data guard under torchrun (2 gloo processes running the Trainer on an in-memory set, as the fit and the
+    UI pass one): the rank that meets the broken crop
+    tells the others, both leave it out, and the run ends where one process with the same broken sample ends."""
+    import json
+    root = ROOT
+    two, one = tmp_path / "two.pt", tmp_path / "one.pt"
+    script = tmp_path / "poison.py"
+    script.write_text(POISON.format(root=str(root), data=str(ds), out=str(two)))
+    p = subprocess.run([sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2",
+                        str(script)], capture_output=True, text=True, timeout=300,
+                       env=dict(os.environ, OMP_NUM_THREADS="1"))
+    assert p.returncode == 0, p.stderr[-3000:]
+    rows = sorted((json.loads(line) for line in p.stdout.splitlines() if line.startswith("{")), key=lambda r: r["rank"])
+    assert [r["rank"] for r in rows] == [0, 1]
+    assert rows[0]["left_out"] == rows[1]["left_out"] == [rows[0]["victim"]] and rows[0]["logged"]
+    ds1 = data.DatasetFolder.load(ds)
+    victim = ds1.subset(data.split_scenes(ds1.scenes, 0.2, 1)[0])[0]
+    victim.y[1].fill_(float("nan"))
+    res = Trainer(_cfg(ds, one, 2), dataset=ds1, log=lambda m: None).run()
+    assert res["left_out"] == rows[0]["left_out"] and res["step"] == rows[0]["step"]
+    assert _max_diff(_last(one), _last(two)) < 1e-4

@@ -81,3 +81,4 @@ def test_a_backend_error_is_cut_to_its_gist():
     with pytest.raises(distributed.LostRank, match=r"^rank 1 of 2: lost contact .* during x \(another rank died or "
                                                    r"hung: Read error .*peer\); stopped\. The last good checkpoint"):
         d._fail("x", e)
+
