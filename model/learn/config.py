@@ -42,6 +42,10 @@ class TrainConfig:
     val_fraction: float = 0.2
     target: str | None = None  # what to learn (channels.TARGETS); None: ref_diffuse when the dataset holds it, else ref
     init: str | None = None  # start from this checkpoint's weights (its variant and architecture; new inputs at 0)
+    device: str = "auto"  # auto (CUDA when present), cpu, cuda; under torchrun each process takes GPU LOCAL_RANK
+    amp: str = "auto"  # mixed precision of the training forward pass: auto (bf16 on CUDA, off on CPU), off, bf16
+    workers: int = 0  # data-loading worker processes (0: batches are built in the training process)
+    cache_mb: float | None = None  # read samples on demand through an LRU of this many MB per process (None: all in memory)
     command: str | None = None
 
     def check(self) -> None:
@@ -51,6 +55,14 @@ class TrainConfig:
             v = getattr(self, name)
             if v is not None and v < 1:
                 raise UserError(f"--{name.replace('_', '-')} must be >= 1 (got {v})")
+        if self.workers < 0:
+            raise UserError(f"--workers must be >= 0 (got {self.workers})")
+        if self.cache_mb is not None and not self.cache_mb > 0:
+            raise UserError(f"--cache-mb must be > 0 (got {self.cache_mb})")
+        if self.device not in ("auto", "cpu", "cuda"):
+            raise UserError(f"--device must be auto, cpu or cuda (got {self.device!r})")
+        if self.amp not in ("auto", "off", "bf16"):
+            raise UserError(f"--amp must be auto, off or bf16 (got {self.amp!r})")
         if self.minutes is not None and not self.minutes > 0:
             raise UserError(f"--minutes must be > 0 (got {self.minutes})")
         if self.lr is not None and not (self.lr > 0 and math.isfinite(self.lr)):

@@ -2,17 +2,24 @@
 
 Used by ``cli.py train`` and by the Blender "Train" operator's worker thread (it never touches bpy).
 
-Why this module stays whole (~430 lines): it is the training loop (its config and one class), whose resume state, lr
+Why this module stays whole (~480 lines): it is the training loop (its config and one class), whose resume state, lr
 schedule, NaN guard and checkpoints share the same fields (step, epoch, snapshot, lr scale, quarantine) and one
 invariant (a resumed run equals an uninterrupted one); split, those fields would be written in one module and
 read in another. What is not the loop is elsewhere: validation metrics (validation.py), learning curves
-(curves.py), checkpoints (checkpoint.py), samples (data.py).
+(curves.py), checkpoints (checkpoint.py), samples (data.py), the epoch plan, crops, loader workers and the
+sample cache (batches.py), the processes under torchrun and their collectives (distributed.py).
 
-- Data: the whole dataset folder in memory (data.DatasetFolder); train/validation split by scene
-  (data.split_scenes, seeded), recorded in the checkpoint.
+- Data: the whole dataset folder in memory (data.DatasetFolder), or read on demand through a bounded cache
+  (``cache_mb``, batches.load_lazy); train/validation split by scene (data.split_scenes, seeded), recorded in
+  the checkpoint.
+- Processes: one, or N under ``torchrun`` (DistributedDataParallel; docs/training_distributed.md): ``batch`` is
+  the global batch, every rank draws the same seeded plan and trains on its share, the loss is normalised by the
+  global pixel count, every guard decides on all-reduced values, rank 0 validates and writes the checkpoints.
+  Device: ``device`` (CUDA when present), ``amp`` (bf16 autocast of the forward pass on CUDA).
 - Batches: random ``crop`` x ``crop`` crops of training images, each mirrored left-right with p = 0.5
-  (normalize.flip_x negates normal.x). One epoch = ``crops_per_image`` crops of every training image
-  (default: image area / crop area, so an epoch sees about as many pixels as the training set has).
+  (normalize.flip_x negates normal.x), drawn for the whole epoch at its start (batches.plan). One epoch =
+  ``crops_per_image`` crops of every training image (default: image area / crop area, so an epoch sees about as
+  many pixels as the training set has).
 - Loss: mean squared error in log1p space, ``mean((net(x) - log1p(ref))^2)`` over the geometry pixels
   (data.Sample.mask; where nothing was hit the world shows, which no input describes): log1p compresses
   bright lights (1e3 -> 6.9) so they do not dominate, and is close to linear for the [0, 1] range the PSNR
@@ -49,7 +56,7 @@ import numpy as np
 import torch
 
 from .. import channels as ch
-from . import checkpoint, curves, data, network
+from . import batches, checkpoint, curves, data, distributed, network
 from .config import DEFAULT_MINUTES, TrainConfig, data_dirs
 from .validation import evaluate, geometry
 from .. import files, normalize
@@ -86,15 +93,35 @@ class Trainer:
         names = {p.name for p in (self.out, self.last, checkpoint.curve_path(self.out))}
         files.sweep(self.out.parent, owned=names.__contains__)
 
+    def _read_resume(self):
+        """Rank 0 reads MODEL.last.pt (the other ranks' nodes may not see the file); every rank gets it, or the
+        same UserError."""
+        got = None
+        if self.dist.main:
+            try:
+                if self.last.is_file():
+                    got = ("ok", checkpoint.load(self.last))
+                    if "train_state" not in got[1]:
+                        raise UserError(f"{self.last}: has no training state to resume from")
+            except UserError as e:
+                got = ("error", str(e))
+        got = self.dist.from_main(got, "the start (reading the resume file)")
+        if got and got[0] == "error":
+            raise UserError(got[1])
+        return got[1] if got else None
+
     def _setup(self):
         cfg = self.cfg
-        self._remove_stale_temps()
+        self.dist, self.device = distributed.setup(cfg.device)
+        if not self.dist.main:
+            self.log = lambda msg: None  # rank 0 speaks for the run
+        self.dist.note = f" The last good checkpoint {self.last} is kept; continue with --resume (any process count)."
+        if self.dist.main:
+            self._remove_stale_temps()
         resume = None
         if cfg.resume:
-            if self.last.is_file():
-                resume = checkpoint.load(self.last)
-                if "train_state" not in resume:
-                    raise UserError(f"{self.last}: has no training state to resume from")
+            resume = self._read_resume()
+            if resume is not None:
                 stored = resume["train_state"]["config"]
                 for k in ("variant", "inputs", "arch", "optimizer", "batch", "crop", "crops_per_image", "seed",
                           "val_fraction"):
@@ -105,8 +132,10 @@ class Trainer:
                         setattr(cfg, k, stored[k])
                 if cfg.epochs is None and cfg.minutes is None:
                     cfg.epochs, cfg.minutes = stored["epochs"], stored["minutes"]
+                was = resume["train_state"].get("world_size", 1)
                 self.log(f"resuming from {self.last} at epoch {resume['train_state']['epoch']}, "
-                         f"step {resume['train_state']['step']}")
+                         f"step {resume['train_state']['step']}"
+                         + (f" (written by {was} process(es), continued by {self.dist.world})" if was != self.dist.world else ""))
             else:
                 self.log(f"--resume: no {self.last} yet, starting a new training")
         if cfg.epochs is None and cfg.minutes is None:
@@ -114,6 +143,9 @@ class Trainer:
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
         spec = ch.parse_spec(cfg.inputs)
+        if self.dataset is None and cfg.cache_mb:
+            self.log(f"reading {cfg.data} on demand (cache {cfg.cache_mb:g} MB per process) ...")
+            self.dataset = batches.load_lazy(cfg.data, spec, cfg.cache_mb, target=cfg.target)
         if self.dataset is None:
             self.log(f"loading {', '.join(map(str, data_dirs(cfg.data)))} ...")
             self.dataset = data.load_folders(cfg.data, spec, target=cfg.target)
@@ -143,12 +175,17 @@ class Trainer:
             train_sc, val_sc = sorted({s.scene for s in self.train_set}), sorted({s.scene for s in self.val_set})
             split = dict(train=[s.key for s in self.train_set], val=[s.key for s in self.val_set], by="view")
         self.identity = dict(ident, split=split)
+        mine = {k: v for k, v in asdict(cfg).items() if k not in ("command", "data", "out", "threads", "workers", "cache_mb")}
+        distributed.check_same(self.dist, dict(mine, manifest_sha256=ident["manifest_sha256"]), "settings")
         torch.manual_seed(cfg.seed)
         if cfg.init and resume is None and self.init_state is None:
             self.init_state = self._init_from(cfg.init, spec)
         self.net = network.build(network.arch_for(cfg.variant, spec, target=cfg.target, **cfg.arch))
         self.net.train()
-        self.net.to(memory_format=torch.channels_last)  # measured 1.2-1.6x faster steps on this CPU
+        self.net.to(self.device, memory_format=torch.channels_last)  # measured 1.2-1.6x faster steps on this CPU
+        self.amp = cfg.amp if cfg.amp != "auto" else ("bf16" if self.device.type == "cuda" else "off")
+        if self.device.type == "cuda":
+            torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
         lr = cfg.lr if cfg.lr is not None else (1e-3 if cfg.optimizer == "adam" else 1e-2)
         self.base_lr = lr
         self.clip = cfg.clip if cfg.clip is not None else (1.0 if cfg.optimizer == "sgd" else None)
@@ -157,10 +194,11 @@ class Trainer:
         else:
             self.opt = torch.optim.SGD(self.net.parameters(), lr=lr, momentum=0.9)
         self.gen = torch.Generator().manual_seed(cfg.seed + 1)
-        hmin = min(s.x.shape[1] for s in self.train_set)
-        wmin = min(s.x.shape[2] for s in self.train_set)
+        self.sizes = [batches.hw(s) for s in self.train_set]
+        hmin = min(h for h, _ in self.sizes)
+        wmin = min(w for _, w in self.sizes)
         self.crop = (min(cfg.crop, hmin), min(cfg.crop, wmin))
-        area = np.mean([s.x.shape[1] * s.x.shape[2] for s in self.train_set])
+        area = np.mean([h * w for h, w in self.sizes])
         self.cpi = cfg.crops_per_image or max(1, int(round(area / (self.crop[0] * self.crop[1]))))
         self.step = self.epoch = 0
         self.elapsed = 0.0
@@ -184,6 +222,14 @@ class Trainer:
             self.best = dict(ts["best"])
         if self.init_state is not None:
             self.net.load_state_dict(self.init_state)
+        self.model = self.net
+        if self.dist.active:  # gradients averaged over the ranks; rank 0's weights broadcast at the start
+            self.model = torch.nn.parallel.DistributedDataParallel(
+                self.net, device_ids=[self.device.index] if self.device.type == "cuda" else None)
+        self.loader = batches.Loader(batches.Crops(self.train_set, self.dataset.spec, self.crop), cfg.workers,
+                                     pin=self.device.type == "cuda")
+        self.log(f"{self.dist.world} process(es), device {self.device}, mixed precision {self.amp}, "
+                 f"global batch {cfg.batch} crops" + (f", {cfg.workers} loader worker(s)" if cfg.workers else ""))
         self.log(f"{cfg.variant}: {network.count_params(self.net):,} parameters, receptive field "
                  f"{self.net.receptive_field}px; {len(self.train_set)} train / {len(self.val_set)} val samples "
                  f"({len(train_sc)} / {len(val_sc)} scenes); {self.cpi} crops of {self.crop[0]}x{self.crop[1]} per image")
@@ -217,7 +263,7 @@ class Trainer:
     def _train_state(self) -> dict:
         return dict(config=asdict(self.cfg), optimizer=self.opt.state_dict(), generator=self.gen.get_state(),
                     torch_rng=torch.get_rng_state(), step=self.step, epoch=self.epoch, elapsed=self.elapsed,
-                    cpu_s=self._cpu_s(),
+                    cpu_s=self._cpu_s(), world_size=self.dist.world,
                     lr_scale=self.lr_scale, lr_drops=self.lr_drops, skipped=self.skipped, best=dict(self.best),
                     quarantine=list(self.quarantine))
 
@@ -238,36 +284,15 @@ class Trainer:
         return self.base_lr * self.lr_scale * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * progress)))
 
     # ---- batches -----------------------------------------------------------------------------------
-    def _epoch_plan(self) -> torch.Tensor:
-        n = len(self.train_set)
-        return torch.randperm(n * self.cpi, generator=self.gen) % n
-
-    def _batch(self, idx: torch.Tensor):
-        ch_, cw = self.crop
-        xs, ys, ms, used = [], [], [], []
-        for i in idx.tolist():
-            s = self.train_set[i]
-            if s.key in self.quarantine:
-                continue
-            used.append(i)
-            H, W = s.x.shape[1:]
-            y0 = int(torch.randint(0, H - ch_ + 1, (1,), generator=self.gen))
-            x0 = int(torch.randint(0, W - cw + 1, (1,), generator=self.gen))
-            flip = bool(torch.randint(0, 2, (1,), generator=self.gen))
-            x = s.x[None, :, y0:y0 + ch_, x0:x0 + cw]
-            y = s.y[None, :, y0:y0 + ch_, x0:x0 + cw]
-            m = geometry(s)[None, None, y0:y0 + ch_, x0:x0 + cw]
-            if flip:
-                x = normalize.flip_x(x, self.dataset.spec, axis=1)
-                y = torch.flip(y, dims=[-1])
-                m = torch.flip(m, dims=[-1])
-            xs.append(x)
-            ys.append(y)
-            ms.append(m)
-        if not xs:
-            return None, None, used
-        self.batch_mask = torch.cat(ms).float()
-        return torch.cat(xs).contiguous(memory_format=torch.channels_last), torch.cat(ys), used
+    def _local(self, built):
+        """This rank's built crops without the quarantined samples: (x, y, mask, used sample indices)."""
+        x, y, m, idx = built
+        keep = [k for k, i in enumerate(idx) if self.train_set[i].key not in self.quarantine]
+        if len(keep) < len(idx):
+            if not keep:
+                return None, None, None, []
+            x, y, m = x[keep], y[keep], m[keep]
+        return x, y, m, [idx[k] for k in keep]
 
     def _bad_step(self, why: str):
         self.skipped += 1
@@ -287,21 +312,44 @@ class Trainer:
             self.log(f"step {self.step}: {why} {BAD_STREAK} times in a row; back to the last good weights, "
                      f"learning rate halved (x{self.lr_scale:g})")
 
-    def _train_step(self, x, y, lr, used=()) -> float | None:
+    def _train_step(self, x, y, m, lr, used=()) -> float | None:
+        """One step on this rank's crops; under torchrun the loss is normalised by the pixel count of the global
+        batch (so DDP's mean of the ranks' gradients is the gradient of one process over the global batch), and
+        every decision (skip, quarantine, restore) is taken from global values, the same on every rank."""
+        if not self.dist.active and not used:
+            return None
+        if not used:  # a rank whose share is empty (all left out) still takes part: zero crops, zero weight
+            x = torch.zeros((1, network.in_channels(self.net)) + self.crop).contiguous(memory_format=torch.channels_last)
+            y = torch.zeros((1, 3) + self.crop)
+            m = torch.zeros((1, 1) + self.crop)
         for g in self.opt.param_groups:
             g["lr"] = lr
-        out = self.net(x)
-        m = self.batch_mask
-        loss = (((out - normalize.light_forward(y)) ** 2) * m).sum() / (3 * m.sum()).clamp_min(1.0)
-        lv = float(loss.detach())
+        dev = self.device
+        x, y, m = (t.to(dev, non_blocking=True) for t in (x, y, m))
+        with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=self.amp == "bf16"):
+            out = self.model(x)
+        sq = (((out.float() - normalize.light_forward(y)) ** 2) * m).sum()
+        if self.dist.active:
+            tot = self.dist.sum_(torch.stack([sq.detach(), m.sum(), torch.tensor(float(len(used)), device=dev)])
+                                 .to(self.dist.device))
+            if float(tot[2]) == 0:
+                return None
+            denom = (3 * tot[1]).clamp_min(1.0)
+            loss = sq * self.dist.world / denom.to(dev)
+            lv = float(tot[0] / denom)
+        else:
+            loss = sq / (3 * m.sum()).clamp_min(1.0)
+            lv = float(loss.detach())
         if not math.isfinite(lv):
-            bad = [i for k, i in enumerate(used) if not (torch.isfinite(x[k]).all() and torch.isfinite(y[k]).all())]
+            mine = [self.train_set[i].key for k, i in enumerate(used)
+                    if not (torch.isfinite(x[k]).all() and torch.isfinite(y[k]).all())]
+            bad = [k for keys in self.dist.gather(mine, "the data check") for k in keys]
             if bad:  # a data fault, not a training fault: leave the sample out from now on
-                for i in bad:
-                    s = self.train_set[i]
-                    if s.key not in self.quarantine:
-                        self.quarantine.append(s.key)
-                        self.log(f"step {self.step}: sample {s.key} (scene {s.scene}) holds non-finite values; "
+                by_key = {s.key: s for s in self.train_set}
+                for key in bad:
+                    if key not in self.quarantine:
+                        self.quarantine.append(key)
+                        self.log(f"step {self.step}: sample {key} (scene {by_key[key].scene}) holds non-finite values; "
                                  "left out of training from now on")
                 self.opt.zero_grad(set_to_none=True)
                 self.skipped += 1
@@ -315,7 +363,7 @@ class Trainer:
         if self.good_losses % SNAPSHOT_EVERY == 0:  # weights that just gave a sane loss
             self._snapshot()
         self.opt.zero_grad(set_to_none=True)
-        loss.backward()
+        self.dist.backward(loss)
         gn = torch.nn.utils.clip_grad_norm_(self.net.parameters(), self.clip if self.clip else float("inf"))
         if not torch.isfinite(gn):
             self._bad_step("non-finite gradient")
@@ -337,6 +385,8 @@ class Trainer:
         self.cpu0 = time.process_time()
         self._setup()
         self.cpu0 = time.process_time()  # data loading does not count
+        if not self.dist.main:
+            cb = lambda d: None  # noqa: E731 (rank 0 reports)
         cfg = self.cfg
         self.bad_streak = self.good_losses = 0
         self.loss_ema = None
@@ -353,23 +403,29 @@ class Trainer:
                 self.log(f"early stop: no validation improvement for {since_best} epochs")
                 status = "early-stopped"
                 break
-            plan = self._epoch_plan()
-            nb = math.ceil(len(plan) / cfg.batch)
+            plan = batches.plan(self.gen, self.sizes, self.cpi, cfg.batch, self.crop)
+            nb = len(plan)
+            built = self.loader.epoch(batches.share(plan, self.dist.rank, self.dist.world))
             losses = []
             t0 = time.perf_counter()
             el0 = self.elapsed
             partial = False
             for b in range(nb):
-                if stop():
+                cancel = stop()
+                self.elapsed = el0 + time.perf_counter() - t0
+                over = cfg.minutes is not None and self.elapsed >= 60 * cfg.minutes
+                if self.dist.active:  # every rank breaks at the same batch
+                    flags = torch.tensor([float(cancel), float(over)], device=self.dist.device)
+                    cancel, over = (bool(v > 0) for v in self.dist.sum_(flags, "the stop check of a step"))
+                if cancel:
                     status = "cancelled"
                     break
-                self.elapsed = el0 + time.perf_counter() - t0
-                if cfg.minutes is not None and self.elapsed >= 60 * cfg.minutes:
+                if over:
                     partial = True
                     break
                 prog = self._progress(self.epoch + b / nb)
-                x, y, used = self._batch(plan[b * cfg.batch:(b + 1) * cfg.batch])
-                lv = self._train_step(x, y, self._lr(prog), used) if used else None
+                x, y, m, used = self._local(next(built))
+                lv = self._train_step(x, y, m, self._lr(prog), used)
                 if lv is not None:
                     losses.append(lv)
                 now = time.perf_counter()
@@ -381,7 +437,9 @@ class Trainer:
                 break
             self.elapsed = el0 + time.perf_counter() - t0
             self.epoch += 1
-            ev = evaluate(self.net, self.val_set)
+            # validation once, on rank 0, of the plain module: what one process computes on these weights
+            ev, self.elapsed = self.dist.from_main((evaluate(self.net, self.val_set) if self.dist.main else None,
+                                                    self.elapsed), f"the validation of epoch {self.epoch}")
             if not math.isfinite(ev["val_loss"]):
                 self._restore()
                 raise Diverged(f"validation loss is not finite at epoch {self.epoch}; stopped, {self.out} is kept")
@@ -395,17 +453,22 @@ class Trainer:
                 since_best = 0
             else:
                 since_best += 1
-            self._save(improved)
+            if self.dist.main:
+                self._save(improved)
+            self.dist.note = (f" The last good checkpoint {self.last} (epoch {self.epoch}) is kept; continue with "
+                              "--resume (any process count).")
             self.log(f"epoch {self.epoch}: loss {entry['loss']:.5f}  val PSNR {ev['val_psnr']:.2f} dB "
                      f"(tm {ev['val_tm_psnr']:.2f}, SSIM {ev['val_ssim']:.3f})  {self.elapsed / 60:.2f} min"
                      + ("  *best" if improved else ""))
             cb(self._state("epoch", self._progress(self.epoch), entry["loss"]))
-        if self.history:
+        self.dist.close()
+        if self.history and self.dist.main:
             curves.curve_png(self.history, checkpoint.curve_path(self.out), f"{cfg.variant} on {' + '.join(Path(d).name for d in data_dirs(cfg.data))}")
         summary = dict(status=status, model=str(self.out), last=str(self.last), epochs=self.epoch, step=self.step,
                        minutes=self.elapsed / 60, best=self.best, skipped_steps=self.skipped, lr_drops=self.lr_drops,
                        params=network.count_params(self.net), variant=cfg.variant, left_out=list(self.quarantine),
-                       curve=str(checkpoint.curve_path(self.out)) if self.history else None)
+                       curve=str(checkpoint.curve_path(self.out)) if self.history else None,
+                       world_size=self.dist.world, rank=self.dist.rank, device=str(self.device), amp=self.amp)
         cb(dict(self._state("end", 1.0, math.nan), status=status))
         return summary
 

@@ -23,9 +23,10 @@ def evaluate(net, samples, with_ssim: bool = True) -> dict:
     p, tp = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True)
     ss, sq, n = [], 0.0, 0
     net.eval()
+    dev = next(net.parameters(), torch.empty(0)).device  # a network on a GPU is scored there, the metrics on the CPU
     with torch.inference_mode():
         for s in samples:
-            out = net(s.x[None].contiguous(memory_format=torch.channels_last))
+            out = net(s.x[None].to(dev).contiguous(memory_format=torch.channels_last)).float().cpu()
             m = geometry(s)
             sq += float((((out - normalize.light_forward(s.y[None])) ** 2) * m).sum())
             n += 3 * int(m.sum())

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 from ...model.cliargs import existing_file
@@ -34,8 +35,12 @@ def run_train(args) -> dict:
                       optimizer=args.optimizer, lr=args.lr, clip=args.clip, batch=args.batch, crop=args.crop,
                       crops_per_image=args.crops_per_image, early_stop=args.early_stop, threads=args.threads,
                       seed=args.seed, val_fraction=args.val_fraction, target=args.target, init=args.init,
+                      device=args.device, amp=args.amp, workers=args.workers, cache_mb=args.cache_mb,
                       command=command_line())
-    bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet, bar_format="{l_bar}{bar}| {postfix}")
+    rank0 = os.environ.get("RANK", "0") == "0"  # under torchrun rank 0 reports (progress, --json)
+    if not rank0:
+        args.json = False
+    bar = tqdm(total=1000, file=sys.stderr, unit="‰", disable=args.quiet or not rank0, bar_format="{l_bar}{bar}| {postfix}")
 
     def cb(d):
         bar.n = int(1000 * d["progress"])
@@ -90,7 +95,9 @@ def register_cli(sub) -> None:
     p = sub.add_parser("train", help="train a network on a baked dataset",
                        description="Train a network on a dataset folder. MODEL is the best checkpoint so far "
                                    "(by validation PSNR); MODEL.last.pt beside it is the resume point; "
-                                   "MODEL.curve.png the learning curve.")
+                                   "MODEL.curve.png the learning curve. Several processes or machines: "
+                                   "torchrun --nproc_per_node N cli.py train ... (--batch is the global batch; "
+                                   "see docs/training_distributed.md).")
     p.add_argument("--data", required=True, nargs="+", metavar="DIR",
                    help="dataset folder (manifest.json + EXR samples); several train together, each split "
                         "into train/validation by its own scenes")
@@ -122,6 +129,15 @@ def register_cli(sub) -> None:
     p.add_argument("--seed", type=int, default=T.seed)
     p.add_argument("--val-fraction", type=float, default=T.val_fraction,
                    help="share of scenes for validation (default %(default)s)")
+    p.add_argument("--device", default=T.device, choices=("auto", "cpu", "cuda"),
+                   help="auto: CUDA when torch sees a GPU (under torchrun, GPU LOCAL_RANK), else CPU")
+    p.add_argument("--amp", default=T.amp, choices=("auto", "off", "bf16"),
+                   help="mixed precision of the forward pass: auto = bf16 on CUDA, off on CPU (default %(default)s)")
+    p.add_argument("--workers", type=int, default=T.workers,
+                   help="data-loading worker processes per training process (default %(default)s)")
+    p.add_argument("--cache-mb", type=float, default=T.cache_mb, metavar="MB",
+                   help="read samples on demand through an LRU cache of MB per process (training process and each "
+                        "worker) instead of loading the whole dataset into memory")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
 
