@@ -1,4 +1,5 @@
-"""Operators of the SSGI node: add the node, Set up SSGI, Render SSGI Image/Animation (``bpy.ops.ssgi.render``).
+"""Operators of the SSGI node: add the node, Set up SSGI, Export ONNX, Render SSGI Image/Animation
+(``bpy.ops.ssgi.render``).
 
 ``bpy.ops.ssgi.render(animation=False)`` runs the whole render synchronously (scripts, ``blender -b``);
 invoked from the UI it renders one frame per timer tick (the main-thread job ``ui_jobs.render``, ops.JobSteps),
@@ -67,6 +68,29 @@ class SSGI_OT_setup(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class SSGI_OT_export_onnx(bpy.types.Operator):
+    """Export the model as ONNX beside it (M.onnx), which the SSGI node runs in the bundled onnxruntime,
+    without PyTorch (the export itself needs PyTorch and the onnx package)"""
+    bl_idname = "ssgi.export_onnx"
+    bl_label = "Export ONNX"
+
+    model: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
+                                    description="Model checkpoint; empty uses the node's, the scene's or the shipped one")
+
+    def execute(self, context):
+        from ..ssgi_addon.pipeline import learn
+        try:
+            path = ssgi_node.resolve_model(context.scene, self.model or None)
+            res = learn.export(learn.ExportConfig(model=str(path), command=f"bpy.ops.ssgi.export_onnx(model={str(path)!r})"))
+        except (UserError, OSError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        from ..ssgi_addon.blender.predictor import forget_models
+        forget_models()
+        self.report({"INFO"}, f"wrote {res['out']} (onnxruntime vs torch: {res['parity']['max_rel']:.1e} relative)")
+        return {"FINISHED"}
+
+
 class SSGI_OT_render(JobSteps, bpy.types.Operator):
     """Render with SSGI: EEVEE passes -> predicted GI -> your compositor -> the output path"""
     bl_idname = "ssgi.render"
@@ -129,7 +153,7 @@ def draw_render_menu(self, context):
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Animation", icon="RENDER_ANIMATION").animation = True
 
 
-CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_render)
+CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_export_onnx, SSGI_OT_render)
 _MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu), ("TOPBAR_MT_render", draw_render_menu))
 
 

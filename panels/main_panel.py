@@ -16,12 +16,15 @@ class SSGI_PT_main(RenderPropertiesPanel, bpy.types.Panel):
         ok, info = deps.torch_status()
         if not ok:
             col = layout.column()
-            col.label(text="PyTorch missing: training, prediction and the SSGI node are off.", icon="ERROR")
-            col.label(text="Randomize and Bake still work. Install it from Preferences > Add-ons > SSGI.")
+            col.label(text="PyTorch missing: training, fit and report are off.", icon="ERROR")
+            col.label(text="The SSGI node runs ONNX models (bundled onnxruntime); Randomize and Bake work.")
+            col.label(text="Install PyTorch from Preferences > Add-ons > SSGI.")
         settings = getattr(context.scene, "ssgi", None)
         if settings is not None:
             layout.prop(settings, "dataset_dir")
-            layout.prop(settings, "model_path")
+            row = layout.row(align=True)
+            row.prop(settings, "model_path")
+            row.operator("ssgi.export_onnx", text="", icon="EXPORT")
 
 
 CLASSES = (SSGI_PT_main,)

@@ -101,12 +101,30 @@ if ! quiet_pip -r requirements.lock; then
   quiet_pip --extra-index-url https://download.pytorch.org/whl/cpu -r requirements.lock
 fi
 
+# --- the wheels the extension zip bundles (blender_manifest.toml `wheels`) ----------------------------------
+# OpenEXR's (1.7 MB) is committed; onnxruntime's (23.6 MB) is fetched here rather than kept in git, and checked
+# against wheels/SHA256SUMS, so that `make build` packs the very file the tests ran with.
+while read -r sum name; do
+  [ -n "$name" ] || continue
+  if [ ! -f "wheels/$name" ]; then
+    pkg=$(echo "$name" | cut -d- -f1); ver=$(echo "$name" | cut -d- -f2)
+    say "fetching the bundled wheel $name"
+    tmp=$(mktemp -d)
+    .venv/bin/python -m pip download --disable-pip-version-check --no-input -q --no-deps --only-binary :all: \
+      --platform manylinux_2_28_x86_64 --python-version 3.11 -d "$tmp" "$pkg==$ver" 2> >(grep -v -E "$PIP_NOISE" >&2) \
+      || { say "ERROR: could not download $pkg==$ver (the extension zip bundles it)"; exit 1; }
+    mv "$tmp/$name" "wheels/$name" 2>/dev/null || { say "ERROR: pip gave $(ls "$tmp"), not wheels/$name"; exit 1; }
+    rm -rf "$tmp"
+  fi
+  echo "$sum  wheels/$name" | sha256sum -c --quiet - || { say "ERROR: wheels/$name: sha256 differs from wheels/SHA256SUMS"; exit 1; }
+done < wheels/SHA256SUMS
+
 # --- checks --------------------------------------------------------------------------------------------
 BPY_SO=$(.venv/bin/python -c 'import importlib.util as u, os; print(os.path.join(u.find_spec("bpy").submodule_search_locations[0], "__init__.so"))')
 if ldd "$BPY_SO" | grep -q 'not found'; then
   say "ERROR: bpy needs system libraries that are missing:"; ldd "$BPY_SO" | grep 'not found' >&2; exit 1
 fi
-out=$(.venv/bin/python -c 'import bpy, torch, numpy, OpenEXR; print("bpy", bpy.app.version_string, "torch", torch.__version__, "numpy", numpy.__version__)' 2>&1) \
+out=$(.venv/bin/python -c 'import bpy, torch, numpy, OpenEXR, onnx, onnxruntime; print("bpy", bpy.app.version_string, "torch", torch.__version__, "numpy", numpy.__version__, "onnxruntime", onnxruntime.__version__)' 2>&1) \
   || { say "ERROR: the new environment does not import:"; echo "$out" | grep -v EGL >&2; exit 1; }
 say "$(echo "$out" | grep -v EGL | tail -1)"
 touch .venv/.ssgi-setup-done

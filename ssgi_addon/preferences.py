@@ -1,4 +1,4 @@
-"""Add-on preferences: the dependency installer and the torch thread count."""
+"""Add-on preferences: the dependency installer, the thread count, and the runtime and device of prediction."""
 from __future__ import annotations
 
 import bpy
@@ -24,8 +24,22 @@ class SSGI_AddonPreferences(bpy.types.AddonPreferences):
     bl_idname = __package__.rsplit(".", 1)[0]
 
     torch_threads: bpy.props.IntProperty(
-        name="Torch threads", default=1, min=1, max=64,
-        description="CPU threads for training and prediction inside Blender (1 keeps the UI and renders responsive)")
+        name="Threads", default=1, min=1, max=64,
+        description="CPU threads for training and prediction (torch or onnxruntime) inside Blender (1 keeps the "
+                    "UI and renders responsive)")
+
+    runtime: bpy.props.EnumProperty(
+        name="Runtime", default="AUTO",
+        items=[("AUTO", "Auto", "onnxruntime (bundled) when the model has an ONNX export beside it, else PyTorch"),
+               ("ONNX", "onnxruntime", "The bundled onnxruntime: needs the model's .onnx export beside it"),
+               ("TORCH", "PyTorch", "PyTorch (installed with 'Install Python dependencies'): runs any .pt")],
+        description="What runs the SSGI node's network")
+    device: bpy.props.EnumProperty(
+        name="Device", default="AUTO",
+        items=[("AUTO", "Auto", "A GPU the runtime can use (CUDA, MPS; DirectML or CoreML in onnxruntime), else the CPU"),
+               ("CPU", "CPU", "The CPU"), ("CUDA", "CUDA", "An NVIDIA GPU (CPU when there is none)"),
+               ("MPS", "MPS", "Apple's GPU: Metal in PyTorch, CoreML in onnxruntime (CPU when there is none)")],
+        description="Where prediction runs; a GPU that is absent falls back to the CPU, never an error")
 
     pip_requirement: bpy.props.StringProperty(
         name="Package", default=deps.TORCH_REQUIREMENT,
@@ -59,6 +73,12 @@ class SSGI_AddonPreferences(bpy.types.AddonPreferences):
             if not bpy.app.online_access:
                 box.label(text="Allow online access in Preferences > System to install", icon="INFO")
         layout.prop(self, "torch_threads")
+        row = layout.row()
+        row.prop(self, "runtime")
+        row.prop(self, "device")
+        ort_ok, ort_info = deps.onnxruntime_status()
+        layout.label(text=f"onnxruntime: {ort_info}" if ort_ok else "onnxruntime: not importable",
+                     icon="CHECKMARK" if ort_ok else "ERROR")
 
 
 CLASSES = (SSGI_AddonPreferences,)

@@ -25,7 +25,8 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
     dataset_dir: bpy.props.StringProperty(name="Dataset", subtype="DIR_PATH", default="//ssgi_dataset/",
                                           description="Folder of the baked dataset (EXR samples + manifest.json)")
     model_path: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
-                                         description="Model checkpoint (.pt); empty uses the shipped default model")
+                                         description="Model checkpoint (.pt; its .onnx export beside it runs without PyTorch) or an .onnx "
+                                                     "export; empty uses the shipped default model")
     # Train panel (ssgi_addon/pipeline/training.py, runtime/ui_jobs.py train)
     train_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
                                         description="Checkpoint the training writes (best so far); empty: model.pt in the dataset folder")

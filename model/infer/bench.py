@@ -89,7 +89,7 @@ def cold_prediction(model, w: int, h: int, threads: int = 1) -> dict:
     Meaningful in a fresh process only (``peak_memory`` runs it in one)."""
     from . import predictor
 
-    pred = predictor.load_predictor(model, num_threads=threads)
+    pred = predictor.load_predictor(model, num_threads=threads, runtime="torch")
     g = synthetic_groups(w, h)
     before = _vm("VmRSS")
     t = time.perf_counter()

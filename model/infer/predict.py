@@ -21,10 +21,10 @@ def write_rgb_exr(path, rgb: np.ndarray, half: bool = False) -> None:
     exrio.write_exr(path, {c: rgb[..., i] for i, c in enumerate("RGB")}, half=half)
 
 
-def predict_file(model, input_path, out, png=None, threads=None, tile=None) -> dict:
+def predict_file(model, input_path, out, png=None, threads=None, tile=None, runtime="auto", device="auto") -> dict:
     from .predictor import DEFAULT_TILE, load_predictor
 
-    pred = load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE)
+    pred = load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE, runtime=runtime, device=device)
     input_path = Path(input_path)
     planes, _ = exrio.read_exr(input_path)
     lacking = [c for g in pred.required for c in ch.GROUPS[g].channels if c not in planes]
@@ -39,7 +39,8 @@ def predict_file(model, input_path, out, png=None, threads=None, tile=None) -> d
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     write_rgb_exr(out, rgb)
     res = dict(out=str(out), size=list(rgb.shape[:2]), seconds=dt, repaired_pixels=pred.last_repaired,
-               model=str(model), inputs=ch.format_spec(pred.spec))
+               model=str(model), inputs=ch.format_spec(pred.spec), runtime=pred.runtime, device=pred.device,
+               model_file=str(pred.path))
     if ch.TARGET_GROUP in groups:
         ref = groups[ch.TARGET_GROUP]
         if np.isfinite(ref).all():

@@ -100,10 +100,8 @@ def load(path) -> dict:
     for k in ("arch", "state_dict", "inputs"):
         if k not in d:
             raise UserError(f"{path}: SSGI checkpoint lacks {k!r}")
-    fv, nv = d.get("format_version"), (d.get("normalization") or {}).get("version")
-    if fv != ch.FORMAT_VERSION or nv != normalize.DESCRIPTION["version"]:
-        raise UserError(f"{path}: model was trained on channel spec v{fv} with normalisation v{nv}; this SSGI reads "
-                        f"v{ch.FORMAT_VERSION} with v{normalize.DESCRIPTION['version']}: retrain it or update SSGI")
+    from ..infer.contract import check_versions
+    check_versions(d, path)
     return d
 
 

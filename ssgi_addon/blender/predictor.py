@@ -14,32 +14,45 @@ from . import node as ssgi_node
 _PREDICTORS: dict = {}
 
 
-def load_model(path: Path):
-    """A cached Predictor for ``path`` (reloaded when the file changes). UserError names a missing/bad file."""
+def load_model(path: Path, runtime: str | None = None, device: str | None = None):
+    """A cached predictor for ``path`` (reloaded when the file changes), in ``runtime``/on ``device``
+    (model/infer/predictor.load_predictor; None: the add-on preferences', "auto" outside Blender's UI):
+    onnxruntime with the .onnx beside the .pt where there is one, torch otherwise. UserError names a
+    missing/bad file or what is missing to run it."""
     path = Path(path)
     fault = cliargs.model_file_fault(path)
     if fault:
         hint = " (the shipped default model)" if path == ssgi_node.DEFAULT_MODEL else ""
         raise UserError(f"{path}: {fault}{hint}; set the SSGI node's model or pass --model")
+    from ...model.infer import predictor as infer
+    threads = None
     try:
-        from ...model.infer import predictor as infer
-    except ImportError as e:  # torch missing in this Blender
-        from ..runtime import deps
-        raise UserError(deps.missing_message("The SSGI node") + f" ({e})") from None
-    key = (str(path.resolve()), path.stat().st_mtime_ns)
+        from .. import preferences
+        if preferences.prefs() is not None:
+            threads = preferences.torch_threads()
+            runtime = runtime or preferences.prefs().runtime.lower()
+            device = device or preferences.prefs().device.lower()
+    except Exception:
+        threads = None
+    runtime, device = runtime or "auto", device or "auto"
+    key = (str(path.resolve()), path.stat().st_mtime_ns, runtime, device)
     pred = _PREDICTORS.get(key)
     if pred is None:
-        threads = None
         try:
-            from .. import preferences
-            if preferences.prefs() is not None:
-                threads = preferences.torch_threads()
-        except Exception:
-            threads = None
-        pred = infer.load_predictor(path, num_threads=threads)
+            pred = infer.load_predictor(path, num_threads=threads, runtime=runtime, device=device)
+        except UserError as e:
+            if "PyTorch" not in str(e):
+                raise
+            from ..runtime import deps
+            raise UserError(deps.missing_message("The SSGI node") + f" ({e})") from None
         _PREDICTORS.clear()
         _PREDICTORS[key] = pred
     return pred
+
+
+def forget_models() -> None:
+    """Drop the cached predictors (after an export: the next render picks the runtime again)."""
+    _PREDICTORS.clear()
 
 
 def missing_passes(scene, spec) -> list[str]:

@@ -1,4 +1,4 @@
-"""`cli.py info`: versions, torch availability and the channel spec."""
+"""`cli.py info`: versions, torch and onnxruntime availability and the channel spec."""
 from __future__ import annotations
 
 import platform
@@ -12,12 +12,15 @@ def run(args) -> dict:
     from ...model import channels
     from ..runtime import deps
     ok, torch_info = deps.torch_status()
+    ort_ok, ort_info = deps.onnxruntime_status()
     out = {
         "blender": bpy.app.version_string,
         "python": sys.version.split()[0],
         "numpy": numpy.__version__,
         "torch": torch_info if ok else None,
         "torch_error": None if ok else torch_info,
+        "onnxruntime": ort_info if ort_ok else None,
+        "onnxruntime_error": None if ort_ok else ort_info,
         "platform": platform.platform(),
         "channel_spec_version": channels.FORMAT_VERSION,
         "default_inputs": channels.format_spec(channels.DEFAULT_INPUTS),

@@ -19,7 +19,8 @@ def run(args) -> dict:
     from ..pipeline import render
 
     cfg = render.RenderConfig(blend=args.blend, out=args.out, frames=args.frames, model=args.model,
-                              scene=args.scene, samples=args.samples, setup=args.setup, save_passes=args.save_passes)
+                              scene=args.scene, samples=args.samples, setup=args.setup, save_passes=args.save_passes,
+                              runtime=args.runtime, device=args.device)
     frames = len(args.frames) if args.frames else 1
     try:
         from tqdm import tqdm
@@ -51,4 +52,6 @@ def register_cli(sub) -> None:
                    help="run Set up SSGI first (enable passes, insert the node) if the file lacks it")
     p.add_argument("--save-passes", default=None, metavar="DIR",
                    help="also write each frame's G-buffer (the model's input) as DIR/NNNNNN.exr (32-bit)")
+    from .train import add_runtime_args
+    add_runtime_args(p)
     p.set_defaults(func=run)

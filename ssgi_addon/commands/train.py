@@ -1,4 +1,4 @@
-"""Subcommands ``train``, ``baseline``, ``predict`` (the learning stages, ssgi_addon/pipeline/learn.py),
+"""Subcommands ``train``, ``baseline``, ``predict``, ``export`` (the learning stages, ssgi_addon/pipeline/learn.py),
 ``curves`` and ``bench`` behind argparse (torch is imported inside ``run``)."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import os
 import sys
 
 from ...model.cliargs import existing_file
-from ..pipeline.learn import BaselineConfig, PredictConfig
+from ..pipeline.learn import BaselineConfig, ExportConfig, PredictConfig
 from . import command_line
 
 
@@ -63,14 +63,35 @@ def run_baseline(args) -> dict:
 def run_predict(args) -> dict:
     from ..pipeline import learn
     res = learn.predict(PredictConfig(model=args.model, input=args.input, out=args.out, png=args.png,
-                                      threads=args.threads, tile=args.tile))
-    msg = f"wrote {res['out']} ({res['size'][1]}x{res['size'][0]}) in {res['seconds'] * 1000:.0f} ms"
+                                      threads=args.threads, tile=args.tile, runtime=args.runtime,
+                                      device=args.device))
+    msg = (f"wrote {res['out']} ({res['size'][1]}x{res['size'][0]}) in {res['seconds'] * 1000:.0f} ms "
+           f"({res['runtime']} on {res['device']})")
     if "psnr" in res:
         msg += f"; PSNR vs ref {res['psnr']:.2f} dB (tm {res['tm_psnr']:.2f}, SSIM {res['ssim']:.3f})"
     if res["repaired_pixels"]:
         msg += f"; repaired {res['repaired_pixels']} non-finite input pixel(s)"
     print(msg, file=sys.stderr)
     return res
+
+
+def run_export(args) -> dict:
+    from ..pipeline import learn
+    res = learn.export(ExportConfig(model=args.model, out=args.out, command=command_line()))
+    print(f"wrote {res['out']} ({res['bytes'] / 1024:.0f} KB, opset {res['opset']}); onnxruntime vs torch on HDR "
+          f"inputs: max relative difference {res['parity']['max_rel']:.1e}", file=sys.stderr)
+    return res
+
+
+def add_runtime_args(p) -> None:
+    """``--runtime`` and ``--device`` (model/infer/predictor.load_predictor), for predict and render."""
+    from ...model.infer.contract import DEVICES, RUNTIMES
+    p.add_argument("--runtime", default="auto", choices=RUNTIMES,
+                   help="what runs the network: auto (onnxruntime when M.onnx, exported from M.pt, lies beside it; "
+                        "else torch), torch or onnx (default %(default)s)")
+    p.add_argument("--device", default="auto", choices=DEVICES,
+                   help="where: auto (a GPU the runtime can use, else the CPU), cpu, cuda, mps; a GPU that is "
+                        "absent falls back to the CPU (default %(default)s)")
 
 
 def run_bench(args) -> dict:
@@ -153,13 +174,23 @@ def register_cli(sub) -> None:
     p.set_defaults(func=run_baseline)
 
     p = sub.add_parser("predict", help="run a model on one sample EXR")
-    p.add_argument("--model", required=True, metavar="M", help="checkpoint (.pt) from train or baseline")
+    p.add_argument("--model", required=True, metavar="M", help="checkpoint (.pt) from train or baseline, or its .onnx export")
     p.add_argument("--input", required=True, metavar="SAMPLE.exr", help="a sample EXR holding the model's input groups")
     p.add_argument("--out", required=True, metavar="OUT.exr", help="prediction as an RGB float EXR (linear HDR)")
     p.add_argument("--png", metavar="OUT.png", help="also write a tonemapped sRGB preview")
-    p.add_argument("--threads", type=int, help="torch threads")
+    p.add_argument("--threads", type=int, help="torch / onnxruntime threads")
     p.add_argument("--tile", type=int, help="tile size for big images (default 1024)")
+    add_runtime_args(p)
     p.set_defaults(func=run_predict)
+
+    p = sub.add_parser("export", help="export a checkpoint as ONNX (runs without torch, in the bundled onnxruntime)",
+                       description="Write the network of a checkpoint as an ONNX graph (dynamic H, W) with the "
+                                   "checkpoint's metadata, and check it against torch on HDR inputs. The SSGI node, "
+                                   "render and predict use M.onnx beside M.pt when torch is absent (or faster). "
+                                   "Needs torch and the onnx package.")
+    p.add_argument("--model", required=True, metavar="M.pt", type=existing_file, help="checkpoint from train or baseline")
+    p.add_argument("--out", default=None, metavar="M.onnx", help="the ONNX file (default: beside the model, M.onnx)")
+    p.set_defaults(func=run_export)
 
     p = sub.add_parser("curves", help="plot the learning curves of several models in one PNG")
     p.add_argument("--models", nargs="+", required=True, metavar="M", help="checkpoints (train or baseline)")

@@ -121,8 +121,11 @@ def run(cfg: DemoConfig) -> dict:
 
     torch_ok, torch_info = deps.torch_status()
     model = Path(cfg.model) if cfg.model else node.DEFAULT_MODEL
-    if not torch_ok:
-        missing.append(f"PyTorch: {torch_info} (the SSGI prediction needs it)")
+    from ...model.infer import onnx as ort_backend
+    ort_ok = model.is_file() and ort_backend.available() and ort_backend.export_of(model) is not None
+    if not torch_ok and not ort_ok:
+        missing.append(f"PyTorch: {torch_info} (the SSGI prediction needs it, or onnxruntime and the model's "
+                       f"ONNX export beside it)")
     if not model.is_file():  # only the shipped default can be missing here: check() refused a bad --model
         missing.append(f"the shipped default model {model} is not there yet (train one, or pass --model)")
 
@@ -136,7 +139,7 @@ def run(cfg: DemoConfig) -> dict:
     passes.set_resolution(scene, w, h)
 
     imgs: dict[str, np.ndarray] = {}
-    if torch_ok and model.is_file():
+    if (torch_ok or ort_ok) and model.is_file():
         log(f"rendering with SSGI at {w}x{h} (model {model.name})")
         imgs["ssgi"], imgs["eevee"] = _ssgi_render(scene, model, cfg.samples, times)
     if "eevee" not in imgs:

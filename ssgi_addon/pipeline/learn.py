@@ -4,6 +4,7 @@ torch is imported only when a stage runs (``cli.py --help`` and the configs stay
     train(TrainConfig(data="ds/", out="m.pt", minutes=10), progress=..., should_stop=...)   # model/learn/train.py
     baseline(BaselineConfig(data="ds/", out="linear.pt"))                                   # closed form
     predict(PredictConfig(model="m.pt", input="000000.exr", out="pred.exr", png="pred.png"))
+    export(ExportConfig(model="m.pt"))                                                      # m.onnx beside it
 """
 from __future__ import annotations
 
@@ -54,8 +55,10 @@ class PredictConfig:
     input: str  # a sample EXR
     out: str  # the prediction as an RGB float EXR (linear HDR)
     png: str | None = None  # also a tonemapped sRGB preview
-    threads: int | None = None  # torch threads
+    threads: int | None = None  # torch / onnxruntime threads
     tile: int | None = None  # tile size for big images (None: the Predictor's)
+    runtime: str = "auto"  # model/infer/contract.RUNTIMES: auto (onnxruntime with M.onnx beside M.pt), torch, onnx
+    device: str = "auto"  # contract.DEVICES: auto, cpu, cuda, mps (a GPU that is absent: the CPU)
 
     def check(self) -> None:
         for name in ("threads", "tile"):
@@ -67,4 +70,24 @@ class PredictConfig:
 def predict(cfg: PredictConfig) -> dict:
     from ...model.infer.predict import predict_file
     cfg.check()
-    return predict_file(cfg.model, cfg.input, cfg.out, png=cfg.png, threads=cfg.threads, tile=cfg.tile)
+    return predict_file(cfg.model, cfg.input, cfg.out, png=cfg.png, threads=cfg.threads, tile=cfg.tile,
+                        runtime=cfg.runtime, device=cfg.device)
+
+
+@dataclass
+class ExportConfig:
+    """The ONNX export of a checkpoint (model/infer/export.py); needs torch and the onnx package."""
+    model: str  # checkpoint (.pt)
+    out: str | None = None  # the .onnx to write (None: beside the model, M.onnx)
+    command: str | None = None  # recorded in the file's metadata (export_command)
+
+
+def export(cfg: ExportConfig) -> dict:
+    try:
+        import onnx  # noqa: F401
+        import torch  # noqa: F401
+    except ImportError as e:
+        raise UserError(f"exporting {cfg.model} to ONNX needs torch and the onnx package ({e}): install them, or "
+                        f"export where they are (`pip install onnx`)") from None
+    from ...model.infer.export import export as export_
+    return export_(cfg.model, cfg.out, command=cfg.command)

@@ -116,7 +116,7 @@ class RenderSession:
 
     def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
                  samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
-                 predictor=None, checks: bool = True):
+                 predictor=None, checks: bool = True, runtime: str | None = None, device: str | None = None):
         self.scene = scene
         self.frames = list(frames) if frames is not None else [scene.frame_current]
         if not self.frames:
@@ -132,7 +132,7 @@ class RenderSession:
             raise UserError(f"scene {scene.name!r} writes a video ({scene.render.image_settings.file_format}); "
                             f"SSGI renders write image files: choose an image format in Output Properties")
         self.model_path = ssgi_node.resolve_model(scene, model)
-        self.predictor = predictor if predictor is not None else load_model(self.model_path)
+        self.predictor = predictor if predictor is not None else load_model(self.model_path, runtime, device)
         self.spec = tuple(self.predictor.spec)
         miss = missing_passes(scene, self.spec)
         if miss:
@@ -259,6 +259,7 @@ class RenderSession:
     def summary(self) -> dict:
         res = [{k: v for k, v in r.items() if k not in ("groups", "prediction")} for r in self.results]
         return {"scene": self.scene.name, "model": str(self.model_path), "inputs": ch.format_spec(self.spec),
+                "runtime": getattr(self.predictor, "runtime", "torch"), "model_file": str(self.predictor.path),
                 "frames": [r["frame"] for r in res], "files": [r["path"] for r in res if "path" in r],
                 "cancelled": self.cancelled, "warnings": list(self.warnings), "per_frame": res}
 
@@ -296,6 +297,8 @@ class RenderConfig:
     samples: int | None = None  # EEVEE samples for the passes (None: the scene's render samples)
     setup: bool = False  # run Set up SSGI first (enable the passes, insert the node)
     save_passes: str | None = None  # also write each frame's G-buffer as SAVE_PASSES/NNNNNN.exr
+    runtime: str | None = None  # what runs the network (model/infer/contract.RUNTIMES; None: preferences/auto)
+    device: str | None = None  # where (contract.DEVICES; None: preferences/auto)
 
     def check(self) -> None:
         from ..blender.blendfile import check_blend
@@ -324,8 +327,9 @@ def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
               f"output format is {before})", file=sys.stderr)
     frames = list(cfg.frames) if cfg.frames else [scene.frame_current]
     session = RenderSession(scene, frames, model=cfg.model, out=cfg.out, samples=cfg.samples,
-                            save_passes=cfg.save_passes)
-    print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path}",
+                            save_passes=cfg.save_passes, runtime=cfg.runtime, device=cfg.device)
+    print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path} "
+          f"({session.predictor.runtime} on {session.predictor.device})",
           file=sys.stderr)
     for info in session.iter_frames(should_stop):
         if progress is not None:

@@ -135,13 +135,13 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
     machine = record.machine()
     notes: list[str] = []
     models = [Path(p) for p in cfg.models]
-    preds = [(p, predictor.load_predictor(p, num_threads=cfg.threads)) for p in models]
+    preds = [(p, predictor.load_predictor(p, num_threads=cfg.threads, runtime="torch")) for p in models]
     if cfg.data and cfg.fit_baseline and not any(pr.kind == "linear" for _, pr in preds):
         from ...model.learn import baseline
         bl = out / "linear_baseline.pt"
         log(f"no linear model given: fitting the linear-regression baseline on {cfg.data} -> {bl}")
         baseline.run_baseline(cfg.data, bl, log=log)
-        preds.append((bl, predictor.load_predictor(bl, num_threads=cfg.threads)))
+        preds.append((bl, predictor.load_predictor(bl, num_threads=cfg.threads, runtime="torch")))
         notes.append(f"the linear baseline was fitted by this run (model/learn/baseline.py, closed form) on the training "
                      f"split of {cfg.data}: {bl}")
     n_net = sum(1 for _, pr in preds if pr.kind != "linear")

@@ -1,6 +1,8 @@
 """torch inside the Blender app: detection, the extension's own site-packages, and the pip installer.
 
-Blender's bundled Python has no torch, and 4 GB of wheels can't ship in an extension. The add-on
+Blender's bundled Python has no torch, and 4 GB of wheels can't ship in an extension; the SSGI node runs the
+bundled onnxruntime instead (model/infer/onnx.py) when the model has an ONNX export, so only training, fit and
+report need torch. The add-on
 preferences offer "Install Python dependencies", which pip-installs TORCH_REQUIREMENT into
 ``bpy.utils.extension_path_user(<package>, path="site-packages")``. Features that need torch check
 ``torch_status()`` and say so in their panels; randomizing and baking never need it.
@@ -74,9 +76,19 @@ def torch_available() -> bool:
     return torch_status()[0]
 
 
+def onnxruntime_status() -> tuple[bool, str]:
+    """(importable, "version, providers" or the reason): the bundled runtime of the SSGI node."""
+    try:
+        import onnxruntime as ort
+        return True, f"{ort.__version__} ({', '.join(p.replace('ExecutionProvider', '') for p in ort.get_available_providers())})"
+    except Exception as e:
+        return False, f"onnxruntime is not importable ({type(e).__name__}: {e})"
+
+
 def missing_message(feature: str) -> str:
     return (f"{feature} needs PyTorch, which this Blender's Python lacks: open Preferences > Add-ons > SSGI "
-            f"and press 'Install Python dependencies'.")
+            f"and press 'Install Python dependencies' (the SSGI node needs it only for a model without an ONNX "
+            f"export beside it: Export ONNX where torch is installed).")
 
 
 def pip_command(target: Path, requirement: str = TORCH_REQUIREMENT, python: str | None = None,
