@@ -16,6 +16,7 @@ scores), and the groups of each variant are compared with the first variant's (P
 
     nice -n 10 .venv/bin/python benchmarks/pass_cost.py --size 320x180 [--names studio ...] \\
         [--variants before,merged,...] [--refs /work/reports/artist/data] [--json out.json]
+    nice -n 10 .venv/bin/python benchmarks/pass_cost.py --facts [--refs /work/reports/artist/data]
 
 Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
 path before issue 15), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
@@ -98,7 +99,7 @@ def run_scene(name, size, variants, model, refs) -> dict:
     scene = A.build(name, WARM_SIZE)
     from ssgi.ssgi_addon.blender.compositor import setup_scene
     setup_scene(scene, model)
-    for v in ("before", "nofgi"):  # warm-up: the render configurations once, untimed
+    for v in ("before", "nofgi") if "nofgi" in variants else ("before",):  # warm-up: once, untimed
         ssgi_frame(scene, model, VARIANTS[v])
     eevee_gi(scene)
     passes.set_resolution(scene, *size)
@@ -133,6 +134,65 @@ def run_scene(name, size, variants, model, refs) -> dict:
     return row
 
 
+def facts(size=(96, 54)) -> dict:
+    """What Blender allows, measured on the tiny scene (a lamp, an emissive panel, metal, glass) under a gradient
+    sky: whether EEVEE writes light-group passes, what the Environment pass holds against the ``world`` group,
+    and how far the SHARED_GROUPS of the artist-settings render are from the direct-only render's."""
+    scene = _bootstrap.empty_scene()
+    A.tiny_material_scene(scene)
+    A.world_gradient(scene, (0.1, 0.09, 0.08), (0.6, 0.7, 0.8), (0.2, 0.35, 0.8), strength=1.0)
+    passes.set_resolution(scene, *size)
+    vl = scene.view_layers[0]
+    out = {}
+    with passes._settings_kept(scene):  # light groups: lamps + emitter in one, the world in another
+        vl.lightgroups.add(name="lamps")
+        vl.lightgroups.add(name="sky")
+        for o in scene.objects:
+            if o.type == "LIGHT" or "emissive" in o.name:
+                o.lightgroup = "lamps"
+        scene.world.lightgroup = "sky"
+        vl.use_pass_environment = vl.use_pass_diffuse_direct = vl.use_pass_diffuse_color = True
+        scene.eevee.use_raytracing = scene.eevee.use_fast_gi = False
+        scene.eevee.taa_render_samples = 1
+        p = passes._render(scene)
+        out["eevee_passes_with_light_groups"] = sorted(p)
+        vl.use_pass_environment = False
+    g = passes.render_gbuffer(scene, ("albedo", "normal", "depth", "emission", "world", "rest"), samples=2,
+                              rest_samples=2, merge=False)
+    with passes._settings_kept(scene):
+        vl.use_pass_environment = True
+        scene.eevee.taa_render_samples = 2
+        env = passes._rgb(passes._render(scene), "Environment")
+    geo = g["depth"][..., 0] < 0.999 * scene.camera.data.clip_end
+    out["environment_mean_on_geometry"] = float(env[geo].mean())
+    out["environment_mean_on_sky"] = float(env[~geo].mean())
+    out["world_group_mean_on_geometry"] = float(g["world"][geo].mean())
+    m = passes.render_gbuffer(scene, ("albedo", "normal", "depth", "emission", "rest"), samples=2, rest_samples=2)
+    out["shared_max_abs"] = {k: float(np.abs(m[k] - g[k]).max()) for k in passes.SHARED_GROUPS}
+    return out
+
+
+def world_linearity(folder) -> dict:
+    """How far each stored ``world`` group is from a linear function of the normal (spherical harmonics L1):
+    per scene, the mean and the RMS residual of a least-squares fit over the geometry pixels."""
+    from ssgi.model import images
+    from ssgi.model.dataset import exrio
+    folder = Path(folder)
+    m = json.loads((folder / "manifest.json").read_text())
+    out = {}
+    for key, meta in m["samples"].items():
+        g = exrio.read_sample(folder / f"{key}.exr", ("world", "normal", "depth"), strict=False)
+        mask = images.geometry_mask(g["depth"], g["normal"])
+        w = g.get("world")
+        if w is None or not mask.any() or w[mask].max() <= 0:
+            continue
+        x = np.concatenate([np.ones((int(mask.sum()), 1)), g["normal"][mask]], 1)
+        coef, *_ = np.linalg.lstsq(x, w[mask][:, :3], rcond=None)
+        r = x @ coef - w[mask][:, :3]
+        out[meta["scene"]] = dict(mean=round(float(w[mask].mean()), 4), rms_residual=round(float(np.sqrt((r ** 2).mean())), 5))
+    return out
+
+
 def table(rows, variants) -> str:
     head = ("| scene | size | variant | " + " | ".join(RENDERS) + " | stand-in + predict + composite | whole frame "
             "| EEVEE GI | frame / GI | PSNR |")
@@ -157,7 +217,13 @@ def main(argv=None) -> int:
     ap.add_argument("--model", default=None, help="checkpoint (default: the shipped model)")
     ap.add_argument("--refs", default=None, help="dataset folder with the scenes' Cycles references at --size")
     ap.add_argument("--json", default=None, help="write the rows here")
+    ap.add_argument("--facts", action="store_true", help="only measure what Blender allows (light groups, the "
+                    "Environment pass, the shared groups; with --refs the world group's linearity) and exit")
     a = ap.parse_args(argv)
+    if a.facts:
+        res = facts() | ({"world_vs_normal_L1": world_linearity(a.refs)} if a.refs else {})
+        print(json.dumps(res, indent=1))
+        return 0
     variants = [v.strip() for v in a.variants.split(",") if v.strip()]
     bad = [v for v in variants if v not in VARIANTS]
     if bad:
@@ -165,7 +231,11 @@ def main(argv=None) -> int:
     refs = load_refs(a.refs) if a.refs else {}
     up = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
     print(f"load before: {up}", file=sys.stderr)
-    rows = [run_scene(n, a.size, variants, a.model, refs) for n in a.names]
+    rows = []
+    for n in a.names:  # the JSON is rewritten after each scene: a stopped run keeps the scenes done
+        rows.append(run_scene(n, a.size, variants, a.model, refs))
+        if a.json:
+            Path(a.json).write_text(json.dumps(dict(rows=rows, load_before=up), indent=1))
     up2 = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
     print(table(rows, variants))
     print(f"\nload before: {up}\nload after: {up2}")
