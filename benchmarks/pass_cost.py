@@ -20,8 +20,8 @@ scores), and the groups of each variant are compared with the first variant's (P
 
 Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
 path before issue 15), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
-``raster1`` (merged + the direct-only render at 1 sample, as the bake renders it), ``nofgi`` (raster1 + the
-rest render without fast GI), ``rest4`` (raster1 + the artist-settings render at 4 samples, not the scene's).
+``raster1`` (merged + the direct-only render at 1 sample, as the bake renders it), ``rest4`` (raster1 + the
+artist-settings render at 4 samples, not the scene's).
 """
 from __future__ import annotations
 
@@ -45,7 +45,6 @@ VARIANTS: dict[str, dict] = {
     "before": dict(merge=False),
     "merged": dict(merge=True),
     "raster1": dict(merge=True, raster_samples=1),
-    "nofgi": dict(merge=True, raster_samples=1, rest_fast_gi=False),
     "rest4": dict(merge=True, raster_samples=1, samples=4),  # the artist-settings render at 4 samples too
 }
 RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest")
@@ -99,8 +98,7 @@ def run_scene(name, size, variants, model, refs) -> dict:
     scene = A.build(name, WARM_SIZE)
     from ssgi.ssgi_addon.blender.compositor import setup_scene
     setup_scene(scene, model)
-    for v in ("before", "nofgi") if "nofgi" in variants else ("before",):  # warm-up: once, untimed
-        ssgi_frame(scene, model, VARIANTS[v])
+    ssgi_frame(scene, model, VARIANTS["before"])  # warm-up, untimed
     eevee_gi(scene)
     passes.set_resolution(scene, *size)
     row = dict(scene=name, size=f"{size[0]}x{size[1]}", samples=int(scene.eevee.taa_render_samples), variants={})

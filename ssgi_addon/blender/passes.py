@@ -377,15 +377,15 @@ last_sources: dict[str, str] = {}
 REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings"
 
 
-def render_rest(scene, samples: int | None = None, groups=(), fast_gi: bool | None = None):
+def render_rest(scene, samples: int | None = None, groups=()):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
     Color x Diffuse Light, all that EEVEE renders besides diffuse light: emission, the world seen directly,
     glossy and metal reflections, transmission, volumes. EEVEE's Diffuse Direct pass holds all of its diffuse
     light (with ray tracing on, the traced indirect too): in a closed diffuse room rest measured -0.001 mean
-    (|rest| 0.0017 against a 0.30 image), with ray tracing off and on (docs/bake.md). ``fast_gi`` overrides the
-    scene's fast GI (None: as set). The settings it changes are put back."""
+    (|rest| 0.0017 against a 0.30 image), with ray tracing off and on (docs/bake.md). The settings it changes are
+    put back."""
     _check_camera(scene)
     for g in groups:
         if g not in SHARED_GROUPS:
@@ -394,8 +394,6 @@ def render_rest(scene, samples: int | None = None, groups=(), fast_gi: bool | No
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
-        if fast_gi is not None:
-            scene.eevee.use_fast_gi = bool(fast_gi)
         vl = scene.view_layers[0]
         for f in REST_PASSES + tuple(ch.GROUPS[g].blender_pass for g in groups):
             setattr(vl, f, True)
@@ -421,8 +419,8 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct",)
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
-                   rest_samples: int | None = None, merge: bool = True, raster_samples: int | None = None,
-                   rest_fast_gi: bool | None = None) -> dict[str, np.ndarray]:
+                   rest_samples: int | None = None, merge: bool = True,
+                   raster_samples: int | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -431,9 +429,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last, so that the Render Result left behind is that render (render.py saves it for the artist's compositor
     tree). With ``merge`` and ``rest`` at the G-buffer's samples, the ``SHARED_GROUPS`` come from the rest
     render (bit-identical; docs/pass_cost.md), and the direct-only render is made only for what is left
-    (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``). ``rest_fast_gi``: the rest
-    render's fast GI (None: the scene's). ``last_timings`` holds each render's seconds. The scene's render
-    settings are put back."""
+    (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``; 1 changes ``direct`` on edges
+    and was measured, not made the default: docs/pass_cost.md). ``last_timings`` holds each render's seconds,
+    ``last_sources`` which render each group came from. The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -468,7 +466,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if "rest" in groups:
-        made = render_rest(scene, rest_samples, groups=shared, fast_gi=rest_fast_gi)
+        made = render_rest(scene, rest_samples, groups=shared)
         out["rest"], out["beauty"] = made[:2]
         if shared:
             out.update(made[2])
