@@ -7,14 +7,16 @@ Contract (used by the baker and the compositor node):
 - ``render_gbuffer(scene, groups=None) -> {group: HxWxC float32}``: renders EEVEE with a world that lights
   nothing (camera rays still see it, so the Combined pass keeps the sky), light probes hidden and hard lights
   (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
-  afterwards, and returns the groups top row first with normals in CAMERA space.
+  afterwards, and returns the groups top row first with normals in CAMERA space. Asked for ``rest`` at the
+  same samples (the render path), it reads albedo, normal, depth and emission from that artist-settings render
+  (``SHARED_GROUPS``: bit-identical, docs/pass_cost.md); ``last_timings`` has each render's seconds.
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
   or with hard lights and point-sampled pixels (to check EEVEE's 1-sample Diffuse Direct pass against Cycles').
 
 Pixels are read by saving the render result as a multilayer EXR (the only way that works in background mode,
 see docs/bake.md) and reading every part with OpenEXR.
 
-Why one module of ~420 lines: the G-buffer and the Cycles renders share its scene overrides (the world that
+Why one module of ~590 lines: the G-buffer and the Cycles renders share its scene overrides (the world that
 lights nothing, hard lights, point-sampled pixels) and the EXR read-back; apart, each half would import the
 other's private helpers. Its temporary-file sweeper goes once model/files.py owns the one sweeper.
 """
