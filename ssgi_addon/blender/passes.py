@@ -7,14 +7,16 @@ Contract (used by the baker and the compositor node):
 - ``render_gbuffer(scene, groups=None) -> {group: HxWxC float32}``: renders EEVEE with a world that lights
   nothing (camera rays still see it, so the Combined pass keeps the sky), light probes hidden and hard lights
   (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
-  afterwards, and returns the groups top row first with normals in CAMERA space.
+  afterwards, and returns the groups top row first with normals in CAMERA space. Asked for ``rest`` at the
+  same samples (the render path), it reads albedo, normal, depth and emission from that artist-settings render
+  (``SHARED_GROUPS``: bit-identical, docs/pass_cost.md); ``last_timings`` has each render's seconds.
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
   or with hard lights and point-sampled pixels (to check EEVEE's 1-sample Diffuse Direct pass against Cycles').
 
 Pixels are read by saving the render result as a multilayer EXR (the only way that works in background mode,
 see docs/bake.md) and reading every part with OpenEXR.
 
-Why one module of ~420 lines: the G-buffer and the Cycles renders share its scene overrides (the world that
+Why one module of ~590 lines: the G-buffer and the Cycles renders share its scene overrides (the world that
 lights nothing, hard lights, point-sampled pixels) and the EXR read-back; apart, each half would import the
 other's private helpers. Its temporary-file sweeper goes once model/files.py owns the one sweeper.
 """
@@ -23,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+import time
 
 import bpy
 import numpy as np
@@ -363,31 +366,48 @@ def _settings_kept(scene):
 
 # the passes the rest render needs (the artist's own EEVEE render)
 REST_PASSES = ("use_pass_diffuse_color", "use_pass_diffuse_direct")
+# G-buffer groups that do not depend on the lighting: at equal samples the artist-settings render gives them
+# bit-identical to the direct-only render (measured: max |difference| 0 on a scene with a lamp, an emitter, a
+# sky, metal and glass; tests/blender/test_pass_merge.py), so render_gbuffer reads them from the rest render
+SHARED_GROUPS = ("albedo", "normal", "depth", "emission")
+# seconds of each render of the last render_gbuffer / render_rest call: world, direct_soft, emit_direct, raster,
+# rest (benchmarks/pass_cost.py prints them; a render that was not made has no entry)
+last_timings: dict[str, float] = {}
+# which of those renders each group of the last render_gbuffer call came from
+last_sources: dict[str, str] = {}
 # how the `rest` group is made, recorded in the manifest settings (eevee.rest)
 REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings"
 
 
-def render_rest(scene, samples: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def render_rest(scene, samples: int | None = None, groups=()):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
-    fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4). ``rest`` = Combined - Diffuse
+    fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
+    ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
     Color x Diffuse Light, all that EEVEE renders besides diffuse light: emission, the world seen directly,
     glossy and metal reflections, transmission, volumes. EEVEE's Diffuse Direct pass holds all of its diffuse
     light (with ray tracing on, the traced indirect too): in a closed diffuse room rest measured -0.001 mean
-    (|rest| 0.0017 against a 0.30 image), with ray tracing off and on (docs/bake.md). The settings it changes
-    are put back."""
+    (|rest| 0.0017 against a 0.30 image), with ray tracing off and on (docs/bake.md). The settings it changes are
+    put back."""
     _check_camera(scene)
+    for g in groups:
+        if g not in SHARED_GROUPS:
+            raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: {SHARED_GROUPS}")
     with _settings_kept(scene):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
         vl = scene.view_layers[0]
-        for f in REST_PASSES:
+        for f in REST_PASSES + tuple(ch.GROUPS[g].blender_pass for g in groups):
             setattr(vl, f, True)
+        t0 = time.perf_counter()
         passes = _render(scene)
+        last_timings["rest"] = time.perf_counter() - t0
     comb = passes["Combined"]
     combined = np.stack([comb[c] for c in "RGBA"], axis=-1).astype(np.float32)
     rest = combined[..., :3] - _rgb(passes, "Diffuse Color") * _rgb(passes, "Diffuse Direct")
-    return rest.astype(np.float32), combined
+    if not groups:
+        return rest.astype(np.float32), combined
+    return rest.astype(np.float32), combined, {g: _group(passes, g) for g in groups}
 
 
 # The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
@@ -401,13 +421,19 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct",)
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
-                   rest_samples: int | None = None) -> dict[str, np.ndarray]:
+                   rest_samples: int | None = None, merge: bool = True,
+                   raster_samples: int | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
-    ``direct_soft`` and ``emit_direct`` (a Cycles render, only in a scene with emitters) take a render each; ``rest`` is the artist's own render (``render_rest`` at
-    ``rest_samples``, default the scene's), rendered last, so that the Render Result left behind is that
-    render (render.py saves it for the artist's compositor tree). The scene's render settings are put back."""
+    ``direct_soft`` and ``emit_direct`` (a Cycles render, only in a scene with emitters) take a render each;
+    ``rest`` is the artist's own render (``render_rest`` at ``rest_samples``, default the scene's), rendered
+    last, so that the Render Result left behind is that render (render.py saves it for the artist's compositor
+    tree). With ``merge`` and ``rest`` at the G-buffer's samples, the ``SHARED_GROUPS`` come from the rest
+    render (bit-identical; docs/pass_cost.md), and the direct-only render is made only for what is left
+    (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``; 1 changes ``direct`` on edges
+    and was measured, not made the default: docs/pass_cost.md). ``last_timings`` holds each render's seconds,
+    ``last_sources`` which render each group came from. The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -415,23 +441,39 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
         if g not in INPUT_RENDER_GROUPS:
             raise ValueError(f"group {g!r} is not rendered from the scene; those are: {INPUT_RENDER_GROUPS}")
     _check_camera(scene)
-    raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",))
+    last_timings.clear()
+    last_sources.clear()
+    rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
+    shared = tuple(g for g in groups if g in SHARED_GROUPS) if merge and "rest" in groups and rest_at == int(samples) \
+        else ()
+    raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",) + shared)
     out = {}
+
+    def timed(key, fn, *a, **kw):
+        t0 = time.perf_counter()
+        r = fn(*a, **kw)
+        last_timings[key] = time.perf_counter() - t0
+        return r
+
     with _settings_kept(scene):
         if "world" in groups:  # smooth unoccluded light: 1 sample, as every bake renders it (WORLD_SAMPLES)
-            out["world"] = render_world(scene, samples=WORLD_SAMPLES)
+            out["world"] = timed("world", render_world, scene, samples=WORLD_SAMPLES)
         if "direct_soft" in groups:
-            out["direct_soft"] = direct_light.render_soft_direct(scene)
+            out["direct_soft"] = timed("direct_soft", direct_light.render_soft_direct, scene)
         if "emit_direct" in groups:
-            out["emit_direct"] = direct_light.emitter_direct(scene)
+            out["emit_direct"] = timed("emit_direct", direct_light.emitter_direct, scene)
         if raster:
-            configure_gbuffer(scene, raster, samples=samples)
+            configure_gbuffer(scene, raster, samples=raster_samples or samples)
             with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
-                passes = _render(scene)
+                passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if "rest" in groups:
-        out["rest"], out["beauty"] = render_rest(scene, rest_samples)
+        made = render_rest(scene, rest_samples, groups=shared)
+        out["rest"], out["beauty"] = made[:2]
+        if shared:
+            out.update(made[2])
     out = {g: out[g] for g in groups} | ({"beauty": out["beauty"]} if "beauty" in out else {})
+    last_sources.update({g: "rest" if g in shared + ("rest",) else "raster" if g in raster else g for g in groups})
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
     return out

@@ -116,7 +116,8 @@ class RenderSession:
 
     def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
                  samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
-                 predictor=None, checks: bool = True, runtime: str | None = None, device: str | None = None):
+                 predictor=None, checks: bool = True, runtime: str | None = None, device: str | None = None,
+                 pass_options: dict | None = None):
         self.scene = scene
         self.frames = list(frames) if frames is not None else [scene.frame_current]
         if not self.frames:
@@ -163,6 +164,7 @@ class RenderSession:
         self.samples = int(samples) if samples else int(scene.eevee.taa_render_samples)
         self.save_passes = Path(save_passes) if save_passes else None
         self.keep_groups = keep_groups
+        self.pass_options = dict(pass_options or {})  # more keywords of passes.render_gbuffer (benchmarks/pass_cost.py)
         self.cancelled = False
         self.results: list[dict] = []
 
@@ -176,7 +178,9 @@ class RenderSession:
         try:
             with preserved(scene):
                 t0 = time.perf_counter()
-                groups = passes.render_gbuffer(scene, self.groups, samples=self.samples, rest_samples=self.samples)
+                groups = passes.render_gbuffer(scene, self.groups, samples=self.samples, rest_samples=self.samples,
+                                               **self.pass_options)
+                info["t_pass_renders"] = dict(passes.last_timings)
                 missing = [g for g in self.groups if g not in groups]
                 if missing:
                     raise UserError(f"the pass render returned no {', '.join(missing)} for scene {scene.name!r}")

@@ -1,0 +1,246 @@
+"""Benchmark (issue 15, item 4): what each render of a whole SSGI frame costs, against EEVEE's own GI render
+(ray tracing + fast GI) at the same samples, in the same run.
+
+For each artist scene (benchmarks/artist_scenes.py) at --size, after an untimed warm-up of every render at
+64x36 (Mesa compiles the scene's shaders once), it renders
+- EEVEE GI: ``report_run.render_eevee_gi`` (ray tracing + fast GI at their defaults, the scene's own world and
+  lights) at the scene's samples (16);
+- one whole SSGI frame per --variants entry through the render path (``RenderSession``: passes, stand-in
+  EXR, prediction, composition, the composite render; nothing written), with ``passes.last_timings`` giving each
+  render's seconds: world, direct_soft, emit_direct (Cycles; only with emitters), raster (the direct-only
+  G-buffer), rest (the artist-settings render);
+and prints a markdown table of seconds per render and the frame / EEVEE GI ratio. With --refs (a dataset
+folder holding the scenes' Cycles references at this size, e.g. the report's /work/reports/artist/data) every
+variant's SSGI image is scored (model/metrics.score over the geometry mask of the stored sample, as the report
+scores), and the groups of each variant are compared with the first variant's (PSNR, max |difference|).
+
+    nice -n 10 .venv/bin/python benchmarks/pass_cost.py --size 320x180 [--names studio ...] \\
+        [--variants before,merged,...] [--refs /work/reports/artist/data] [--json out.json]
+    nice -n 10 .venv/bin/python benchmarks/pass_cost.py --facts [--refs /work/reports/artist/data]
+
+Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
+path before issue 15), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
+``raster1`` (merged + the direct-only render at 1 sample, as the bake renders it), ``rest4`` (raster1 + the
+artist-settings render at 4 samples, not the scene's).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
+import artist_scenes as A  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ssgi.model import metrics  # noqa: E402
+from ssgi.model.cliargs import parse_size  # noqa: E402
+from ssgi.ssgi_addon.blender import passes  # noqa: E402
+
+VARIANTS: dict[str, dict] = {
+    "before": dict(merge=False),
+    "merged": dict(merge=True),
+    "raster1": dict(merge=True, raster_samples=1),
+    "rest4": dict(merge=True, raster_samples=1, samples=4),  # the artist-settings render at 4 samples too
+}
+RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest")
+WARM_SIZE = (64, 36)
+
+
+def eevee_gi(scene) -> tuple[np.ndarray, float]:
+    from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
+    samples = int(scene.eevee.taa_render_samples)
+    with passes._settings_kept(scene):
+        t = time.perf_counter()
+        img = render_eevee_gi(scene, "default", samples)
+        return img, time.perf_counter() - t
+
+
+def ssgi_frame(scene, model, options: dict) -> dict:
+    from ssgi.ssgi_addon.pipeline.render import RenderSession
+    options = dict(options)
+    samples = options.pop("samples", None)
+    s = RenderSession(scene, model=model, write=False, keep_groups=True, pass_options=options, samples=samples)
+    t = time.perf_counter()
+    info = s.run()["per_frame"][0]
+    info["t_wall"] = time.perf_counter() - t
+    res = s.results[0]
+    info["groups"], info["prediction"] = res["groups"], res["prediction"]
+    return info
+
+
+def load_refs(folder) -> dict:
+    """{scene name: (ref HxWx3, geometry mask)} of a dataset folder baked with --scenes."""
+    from ssgi.model import images
+    from ssgi.model.dataset import exrio
+    folder = Path(folder)
+    m = json.loads((folder / "manifest.json").read_text())
+    out = {}
+    for key, meta in m["samples"].items():
+        g = exrio.read_sample(folder / f"{key}.exr", ("ref", "depth", "normal"), strict=False)
+        out[meta["scene"]] = (g["ref"][..., :3], images.geometry_mask(g["depth"], g["normal"]))
+    return out
+
+
+def _cmp(a, b) -> dict:
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    d = np.abs(a - b)
+    peak = max(float(np.abs(b).max()), 1e-6)
+    mse = float((d ** 2).mean())
+    return dict(max_abs=float(d.max()), psnr_peak=(math.inf if mse == 0 else 10 * math.log10(peak ** 2 / mse)))
+
+
+def run_scene(name, size, variants, model, refs) -> dict:
+    scene = A.build(name, WARM_SIZE)
+    from ssgi.ssgi_addon.blender.compositor import setup_scene
+    setup_scene(scene, model)
+    ssgi_frame(scene, model, VARIANTS["before"])  # warm-up, untimed
+    eevee_gi(scene)
+    passes.set_resolution(scene, *size)
+    row = dict(scene=name, size=f"{size[0]}x{size[1]}", samples=int(scene.eevee.taa_render_samples), variants={})
+    img, row["eevee_gi_s"] = eevee_gi(scene)
+    first = None
+    for v in variants:
+        info = ssgi_frame(scene, model, VARIANTS[v])
+        r = dict(renders={k: round(info["t_pass_renders"].get(k, 0.0), 2) for k in RENDERS},
+                 passes_s=round(info["t_passes"], 2), standin_s=round(info["t_standin"], 2),
+                 predict_s=round(info["t_predict"], 3), composite_s=round(info["t_composite"], 2),
+                 frame_s=round(info["t_total"], 2))
+        r["ratio_to_eevee_gi"] = round(info["t_total"] / row["eevee_gi_s"], 2)
+        if name in refs:
+            ref, mask = refs[name]
+            sc = metrics.score(info["prediction"], ref, mask)
+            r["score"] = {k: round(float(sc[k]), 3) for k in ("psnr", "ssim", "flip")}
+        groups = {g: a for g, a in info["groups"].items() if g != "beauty"} | {"image": info["prediction"]}
+        if first is None:
+            first = groups
+        else:
+            r["vs_first"] = {g: {k: round(x, 4) if math.isfinite(x) else "inf" for k, x in _cmp(groups[g], first[g]).items()}
+                             for g in groups if g in first}
+        row["variants"][v] = r
+        print(f"{name} {v}: frame {r['frame_s']} s ({r['ratio_to_eevee_gi']}x EEVEE GI {row['eevee_gi_s']:.2f} s) "
+              f"{r['renders']} {r.get('score', '')}", file=sys.stderr, flush=True)
+    row["eevee_gi_s"] = round(row["eevee_gi_s"], 2)
+    if name in refs:
+        ref, mask = refs[name]
+        row["eevee_gi_score"] = {k: round(float(v), 3) for k, v in metrics.score(img, ref, mask).items()
+                                 if k in ("psnr", "ssim", "flip")}
+    return row
+
+
+def facts(size=(96, 54)) -> dict:
+    """What Blender allows, measured on the tiny scene (a lamp, an emissive panel, metal, glass) under a gradient
+    sky: whether EEVEE writes light-group passes, what the Environment pass holds against the ``world`` group,
+    and how far the SHARED_GROUPS of the artist-settings render are from the direct-only render's."""
+    scene = _bootstrap.empty_scene()
+    A.tiny_material_scene(scene)
+    A.world_gradient(scene, (0.1, 0.09, 0.08), (0.6, 0.7, 0.8), (0.2, 0.35, 0.8), strength=1.0)
+    passes.set_resolution(scene, *size)
+    vl = scene.view_layers[0]
+    out = {}
+    with passes._settings_kept(scene):  # light groups: lamps + emitter in one, the world in another
+        vl.lightgroups.add(name="lamps")
+        vl.lightgroups.add(name="sky")
+        for o in scene.objects:
+            if o.type == "LIGHT" or "emissive" in o.name:
+                o.lightgroup = "lamps"
+        scene.world.lightgroup = "sky"
+        vl.use_pass_environment = vl.use_pass_diffuse_direct = vl.use_pass_diffuse_color = True
+        scene.eevee.use_raytracing = scene.eevee.use_fast_gi = False
+        scene.eevee.taa_render_samples = 1
+        p = passes._render(scene)
+        out["eevee_passes_with_light_groups"] = sorted(p)
+        vl.use_pass_environment = False
+    g = passes.render_gbuffer(scene, ("albedo", "normal", "depth", "emission", "world", "rest"), samples=2,
+                              rest_samples=2, merge=False)
+    with passes._settings_kept(scene):
+        vl.use_pass_environment = True
+        scene.eevee.taa_render_samples = 2
+        env = passes._rgb(passes._render(scene), "Environment")
+    geo = g["depth"][..., 0] < 0.999 * scene.camera.data.clip_end
+    out["environment_mean_on_geometry"] = float(env[geo].mean())
+    out["environment_mean_on_sky"] = float(env[~geo].mean())
+    out["world_group_mean_on_geometry"] = float(g["world"][geo].mean())
+    m = passes.render_gbuffer(scene, ("albedo", "normal", "depth", "emission", "rest"), samples=2, rest_samples=2)
+    out["shared_max_abs"] = {k: float(np.abs(m[k] - g[k]).max()) for k in passes.SHARED_GROUPS}
+    return out
+
+
+def world_linearity(folder) -> dict:
+    """How far each stored ``world`` group is from a linear function of the normal (spherical harmonics L1):
+    per scene, the mean and the RMS residual of a least-squares fit over the geometry pixels."""
+    from ssgi.model import images
+    from ssgi.model.dataset import exrio
+    folder = Path(folder)
+    m = json.loads((folder / "manifest.json").read_text())
+    out = {}
+    for key, meta in m["samples"].items():
+        g = exrio.read_sample(folder / f"{key}.exr", ("world", "normal", "depth"), strict=False)
+        mask = images.geometry_mask(g["depth"], g["normal"])
+        w = g.get("world")
+        if w is None or not mask.any() or w[mask].max() <= 0:
+            continue
+        x = np.concatenate([np.ones((int(mask.sum()), 1)), g["normal"][mask]], 1)
+        coef, *_ = np.linalg.lstsq(x, w[mask][:, :3], rcond=None)
+        r = x @ coef - w[mask][:, :3]
+        out[meta["scene"]] = dict(mean=round(float(w[mask].mean()), 4), rms_residual=round(float(np.sqrt((r ** 2).mean())), 5))
+    return out
+
+
+def table(rows, variants) -> str:
+    head = ("| scene | size | variant | " + " | ".join(RENDERS) + " | stand-in + predict + composite | whole frame "
+            "| EEVEE GI | frame / GI | PSNR |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for row in rows:
+        for v in variants:
+            r = row["variants"][v]
+            rest = r["standin_s"] + r["predict_s"] + r["composite_s"]
+            ps = r.get("score", {}).get("psnr")
+            lines.append(f"| {row['scene']} | {row['size']} | {v} | " + " | ".join(
+                f"{r['renders'][k]:.2f}" if r["renders"][k] else "-" for k in RENDERS)
+                + f" | {rest:.2f} | {r['frame_s']:.2f} | {row['eevee_gi_s']:.2f} | {r['ratio_to_eevee_gi']:.2f} | "
+                + (f"{ps:.2f}" if ps is not None else "") + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--names", nargs="+", default=list(A.NAMES), choices=A.NAMES)
+    ap.add_argument("--size", type=parse_size, default=A.DEFAULT_SIZE)
+    ap.add_argument("--variants", default="before,merged", help=f"comma-separated, of {', '.join(VARIANTS)}")
+    ap.add_argument("--model", default=None, help="checkpoint (default: the shipped model)")
+    ap.add_argument("--refs", default=None, help="dataset folder with the scenes' Cycles references at --size")
+    ap.add_argument("--json", default=None, help="write the rows here")
+    ap.add_argument("--facts", action="store_true", help="only measure what Blender allows (light groups, the "
+                    "Environment pass, the shared groups; with --refs the world group's linearity) and exit")
+    a = ap.parse_args(argv)
+    if a.facts:
+        res = facts() | ({"world_vs_normal_L1": world_linearity(a.refs)} if a.refs else {})
+        print(json.dumps(res, indent=1))
+        return 0
+    variants = [v.strip() for v in a.variants.split(",") if v.strip()]
+    bad = [v for v in variants if v not in VARIANTS]
+    if bad:
+        ap.error(f"--variants: unknown {', '.join(bad)}; known: {', '.join(VARIANTS)}")
+    refs = load_refs(a.refs) if a.refs else {}
+    up = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"load before: {up}", file=sys.stderr)
+    rows = []
+    for n in a.names:  # the JSON is rewritten after each scene: a stopped run keeps the scenes done
+        rows.append(run_scene(n, a.size, variants, a.model, refs))
+        if a.json:
+            Path(a.json).write_text(json.dumps(dict(rows=rows, load_before=up), indent=1))
+    up2 = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(table(rows, variants))
+    print(f"\nload before: {up}\nload after: {up2}")
+    if a.json:
+        Path(a.json).write_text(json.dumps(dict(rows=rows, load_before=up, load_after=up2), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
