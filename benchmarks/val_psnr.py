@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import _bootstrap  # noqa: F401  (the checkout as package "ssgi")
 
 from ssgi.model import channels as ch
+from ssgi.model.dataset import folder
 from ssgi.model.learn import checkpoint, data, validation
 
 
@@ -26,12 +28,23 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--split", default="all", choices=("val", "all"),
                     help="all samples, or the validation scenes of data.split_scenes(0.2, seed 0)")
     ap.add_argument("--per-sample", action="store_true", help="also one line per sample (its scene named)")
+    ap.add_argument("--unseen", action="store_true",
+                    help="leave out every scene that any of --models trained on (their checkpoints' recorded splits)")
     a = ap.parse_args(argv)
     stored = data.StoredSamples(a.data)
     keys = sorted(stored.raw)
     if a.split == "val":
         val = set(data.split_scenes(set(stored.scene.values()), 0.2, 0)[1])
         keys = [k for k in keys if stored.scene[k] in val]
+    if a.unseen:
+        sha, here = folder.manifest_sha256(a.data), str(Path(a.data).resolve())
+        seen = set()
+        for path in a.models:
+            ident = checkpoint.load(path).get("dataset")
+            rec = data.recorded_split(ident, sha, here) or {}
+            seen |= set(rec.get("train") or ())
+        keys = [k for k in keys if stored.scene[k] not in seen]
+        print(json.dumps(dict(unseen_samples=len(keys), left_out_scenes=len(seen))), flush=True)
     out = []
     for path in a.models:
         ck = checkpoint.load(path)
