@@ -338,13 +338,19 @@ def upsample_part(part_lo: np.ndarray, lo: dict, hi: dict, method: str = "guided
 class WorkingResolution:
     """Any predictor (``.predict(groups, tile=-1)``, ``.target``, ``.spec``, ``.required``) run at a working
     resolution. ``setting``: "full", "auto", "Nx", "WxH" or an int factor (parse_setting). ``method``:
-    "guided" or "bilinear". Everything else (``spec``, ``required``, ``last_repaired``, ...) is the inner
+    "guided" or "bilinear"; ``residual``: keep the full-resolution direct light (upsample_part); ``threads``: the
+    upsample's (upsample_light). Everything else (``spec``, ``required``, ``last_repaired``, ...) is the inner
     predictor's. A whole-image (``ref``) model's prediction is upsampled as is (confidence: geometry)."""
 
-    def __init__(self, predictor, setting="auto", method: str = "guided"):
+    def __init__(self, predictor, setting="auto", method: str = "guided", residual: bool = True,
+                 threads: int | None = None):
+        if method not in ("guided", "bilinear"):
+            raise UserError(f"upsample method {method!r}: expected 'guided' or 'bilinear'")
         self.inner = predictor
         self.setting = parse_setting(setting) if isinstance(setting, str) else setting
         self.method = method
+        self.residual = residual
+        self.threads = threads
         self.last_factor = 1
         self.last_seconds: dict = {}
 
@@ -375,10 +381,12 @@ class WorkingResolution:
         part = self.inner.predict(lo, tile=tile)
         t2 = time.perf_counter()
         if getattr(self.inner, "target", ch.DIFFUSE_TARGET) == ch.DIFFUSE_TARGET:
-            out = upsample_part(part, lo, groups, method=self.method)
+            out = upsample_part(part, lo, groups, method=self.method, residual=self.residual, factor=f,
+                               threads=self.threads)
         else:
             from ..images import geometry_mask
             conf = geometry_mask(lo["depth"], lo["normal"]).astype(np.float32)[..., None]
-            out = upsample_light(part, lo, groups, weight_lo=np.repeat(conf, 3, -1), method=self.method)
+            out = upsample_light(part, lo, groups, weight_lo=conf, method=self.method, factor=f,
+                                 threads=self.threads)
         self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=time.perf_counter() - t2)
         return np.maximum(out, 0.0)

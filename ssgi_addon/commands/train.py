@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
-from ...model.cliargs import existing_file
+from ...model.cliargs import existing_file, working_res
 from ..pipeline.learn import BaselineConfig, PredictConfig
 from . import command_line
 
@@ -58,7 +58,7 @@ def run_baseline(args) -> dict:
 def run_predict(args) -> dict:
     from ..pipeline import learn
     res = learn.predict(PredictConfig(model=args.model, input=args.input, out=args.out, png=args.png,
-                                      threads=args.threads, tile=args.tile))
+                                      threads=args.threads, tile=args.tile, working_res=args.working_res))
     msg = f"wrote {res['out']} ({res['size'][1]}x{res['size'][0]}) in {res['seconds'] * 1000:.0f} ms"
     if "psnr" in res:
         msg += f"; PSNR vs ref {res['psnr']:.2f} dB (tm {res['tm_psnr']:.2f}, SSIM {res['ssim']:.3f})"
@@ -141,6 +141,9 @@ def register_cli(sub) -> None:
     p.add_argument("--png", metavar="OUT.png", help="also write a tonemapped sRGB preview")
     p.add_argument("--threads", type=int, help="torch threads")
     p.add_argument("--tile", type=int, help="tile size for big images (default 1024)")
+    p.add_argument("--working-res", type=working_res, default="auto", metavar="auto|full|Nx|WxH",
+                   help="resolution the network predicts at, upsampled with the sample's full-resolution G-buffer "
+                        "(default auto: 1/4 per axis for inputs >= 960 px wide, else full)")
     p.set_defaults(func=run_predict)
 
     p = sub.add_parser("curves", help="plot the learning curves of several models in one PNG")

@@ -56,6 +56,7 @@ class PredictConfig:
     png: str | None = None  # also a tonemapped sRGB preview
     threads: int | None = None  # torch threads
     tile: int | None = None  # tile size for big images (None: the Predictor's)
+    working_res: str = "auto"  # network resolution (model/infer/workres.py): auto|full|Nx|WxH
 
     def check(self) -> None:
         for name in ("threads", "tile"):
@@ -67,4 +68,5 @@ class PredictConfig:
 def predict(cfg: PredictConfig) -> dict:
     from ...model.infer.predict import predict_file
     cfg.check()
-    return predict_file(cfg.model, cfg.input, cfg.out, png=cfg.png, threads=cfg.threads, tile=cfg.tile)
+    return predict_file(cfg.model, cfg.input, cfg.out, png=cfg.png, threads=cfg.threads, tile=cfg.tile,
+                        working_res=cfg.working_res)
