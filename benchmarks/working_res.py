@@ -7,9 +7,11 @@ composition), each in this process with VmHWM reset before it.
 
     .venv/bin/python benchmarks/working_res.py --data /work/data/wr/rooms960 [/work/data/diffuse_val ...] \\
         [--model models/ssgi_default.pt] [--factors 2,4,8] [--threads 2] [--limit 6] [--crops DIR] [--json OUT]
+    .venv/bin/python benchmarks/working_res.py --time-at 1920x1080 [--factors 4]     # time and memory only
 
 Prints one table row per (folder, configuration): mean PSNR / SSIM / FLIP over the folder's samples, the median
-prediction time and the largest peak-memory growth. ``--crops DIR`` writes, for the first sample of each folder,
+prediction time (wall and CPU of all threads: on a loaded machine the CPU time is the steadier number)
+and the largest peak-memory growth. ``--crops DIR`` writes, for the first sample of each folder,
 side-by-side crops (full resolution | 1/4 bilinear | 1/4 guided+direct | reference) of the region where the
 upsamples differ most, magnified 3x (sRGB of images.srgb8).
 """
@@ -36,13 +38,14 @@ def label(f: int, method: str, residual: bool) -> str:
     return "full" if f == 1 else f"1/{f} {method}{'+direct' if residual else ''}"
 
 
-def predict_timed(pred, groups, target) -> tuple[np.ndarray, float, float]:
+def predict_timed(pred, groups, target) -> tuple[np.ndarray, float, float, float]:
+    """(image, wall seconds, CPU seconds of all threads, peak memory growth MB) of prediction + composition."""
     before = bench._vm("VmRSS")
     bench._reset_peak()
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     img = compose.compose(pred.predict(groups), groups, target) if "rest" in groups else pred.predict(groups)
-    dt = time.perf_counter() - t
-    return img, dt, max(0, bench._vm("VmHWM") - before) / 2 ** 20
+    dt, dc = time.perf_counter() - t, time.process_time() - c
+    return img, dt, dc, max(0, bench._vm("VmHWM") - before) / 2 ** 20
 
 
 def crop_sheet(path, imgs: dict, ref: np.ndarray, a: np.ndarray, b: np.ndarray, size=(160, 90), zoom=3) -> tuple:
@@ -59,9 +62,31 @@ def crop_sheet(path, imgs: dict, ref: np.ndarray, a: np.ndarray, b: np.ndarray, 
     return x0, y0
 
 
+def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5) -> list[dict]:
+    """Time and peak memory of each configuration at w x h on the benchmark's synthetic inputs (the work does
+    not depend on the content): the median of ``repeats`` after a warm-up, per stage."""
+    g = bench.synthetic_groups(w, h)
+    g["rest"] = np.zeros((h, w, 3), np.float32)
+    rows = []
+    for f, m, r in configs:
+        wpred = workres.WorkingResolution(pred, f if f > 1 else "full", method=m, residual=r, threads=threads)
+        predict_timed(wpred, g, pred.target)
+        runs = [predict_timed(wpred, g, pred.target)[1:] + (dict(wpred.last_seconds),) for _ in range(repeats)]
+        row = dict(size=f"{w}x{h}", config=label(f, m, r), seconds=float(np.median([x[0] for x in runs])),
+                   cpu_seconds=float(np.median([x[1] for x in runs])), peak_mb=max(x[2] for x in runs),
+                   **{f"t_{k}": float(np.median([x[3][k] for x in runs])) for k in runs[0][3]})
+        rows.append(row)
+        print(f"{row['size']:>9} {row['config']:<22} {row['seconds']:7.3f} s wall {row['cpu_seconds']:7.3f} s CPU "
+              f"+{row['peak_mb']:4.0f} MB  " + " ".join(f"{k[2:]} {v:.3f}" for k, v in row.items() if k.startswith("t_")),
+              flush=True)
+    return rows
+
+
 def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", nargs="+", required=True, help="dataset folders (each holds ref)")
+    ap.add_argument("--data", nargs="*", default=[], help="dataset folders (each holds ref)")
+    ap.add_argument("--time-at", nargs="*", default=[], metavar="WxH",
+                    help="also time every configuration at these sizes on synthetic inputs (5 runs each)")
     ap.add_argument("--model", default=str(_bootstrap.ROOT / "models" / "ssgi_default.pt"))
     ap.add_argument("--factors", default="2,4,8")
     ap.add_argument("--threads", type=int, default=2, help="torch and upsample threads (2)")
@@ -74,6 +99,9 @@ def main(argv=None) -> list[dict]:
     pred = load_predictor(a.model, num_threads=a.threads)
     configs = [(1, "guided", True)] + [(f, m, r) for f in factors for m, r in METHODS]
     rows = []
+    for z in a.time_at:
+        w, h = (int(v) for v in z.lower().split("x"))
+        rows += time_at(pred, w, h, configs, a.threads)
     for d in a.data:
         man = folder.open_folder(d)
         keys = sorted(man["samples"])[: a.limit or None]
@@ -92,11 +120,11 @@ def main(argv=None) -> list[dict]:
                 wpred = workres.WorkingResolution(pred, f if f > 1 else "full", method=m, residual=r, threads=a.threads)
                 if i == 0:  # warm-up: the first call of each size pays torch's one-time costs
                     predict_timed(wpred, inp, pred.target)
-                img, dt, mb = predict_timed(wpred, inp, pred.target)
+                img, dt, dc, mb = predict_timed(wpred, inp, pred.target)
                 sc = metrics.score(img, g["ref"], mask, with_flip=not a.no_flip)
                 row = dict(data=str(d), sample=key, size=f"{g['ref'].shape[1]}x{g['ref'].shape[0]}",
                            config=label(f, m, r), factor=f, psnr=sc["psnr"], ssim=sc["ssim"], flip=sc["flip"],
-                           seconds=dt, peak_mb=mb, **{f"t_{k}": v for k, v in wpred.last_seconds.items()})
+                           seconds=dt, cpu_seconds=dc, peak_mb=mb, **{f"t_{k}": v for k, v in wpred.last_seconds.items()})
                 rows.append(row)
                 out[row["config"]] = img
                 print(json.dumps(row), file=sys.stderr, flush=True)
@@ -106,9 +134,11 @@ def main(argv=None) -> list[dict]:
                 pick = {k: out[k] for k in ("full", "1/4 bilinear", "1/4 guided+direct")}
                 xy = crop_sheet(name, pick, g["ref"], out["1/4 bilinear"], out["1/4 guided+direct"])
                 print(f"crops: {name} at x,y={xy}: " + " | ".join(list(pick) + ["reference"]), file=sys.stderr)
-    print(f"{'data':<14} {'size':>9} {'configuration':<22} {'PSNR':>6} {'SSIM':>6} {'FLIP':>6} {'time s':>7} {'+MB':>6}")
+    print(f"{'data':<14} {'size':>9} {'configuration':<22} {'PSNR':>6} {'SSIM':>6} {'FLIP':>6} {'time s':>7} {'cpu s':>6} {'+MB':>6}")
     seen = []
     for r in rows:
+        if "data" not in r:
+            continue
         k = (r["data"], r["config"])
         if k in seen:
             continue
@@ -117,7 +147,8 @@ def main(argv=None) -> list[dict]:
         fl = [x["flip"] for x in rs if x["flip"] is not None]
         print(f"{Path(k[0]).name:<14} {rs[0]['size']:>9} {k[1]:<22} {np.mean([x['psnr'] for x in rs]):6.2f} "
               f"{np.mean([x['ssim'] for x in rs]):6.3f} {np.mean(fl) if fl else float('nan'):6.3f} "
-              f"{np.median([x['seconds'] for x in rs]):7.3f} {max(x['peak_mb'] for x in rs):6.0f}")
+              f"{np.median([x['seconds'] for x in rs]):7.3f} {np.median([x['cpu_seconds'] for x in rs]):6.3f} "
+              f"{max(x['peak_mb'] for x in rs):6.0f}")
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
     return rows

@@ -16,17 +16,21 @@ the output resolution as *diffuse light* guided by the full-resolution G-buffer:
      log1p(albedo x direct), albedo and the geometry fraction, so they move only by the box average's
      effect on log1p (Jensen) and on the edge pixels: measured in docs/working_res.md.
 2. The model predicts at the working resolution (tiled there, exactly as at any size: ``Predictor.predict``).
-3. ``upsample_light``: the predicted diffuse part is divided by the reduced albedo (light = part / albedo) and
-   brought back with a joint bilateral upsample (Kopf et al. 2007) guided by the full-resolution depth and
-   normals: each output pixel averages the 3 x 3 working-resolution samples around its block with weights
-   spatial x exp(-(dlog z / sigma_z)^2) x exp(-(1 - n.n') / sigma_n). The average is a normalised convolution
-   with the albedo as each sample's per-channel confidence: light = sum(w x part) / sum(w x albedo). So
-   samples with black albedo or where nothing was hit (albedo 0) carry no weight instead of a made-up
-   light, and a colour channel with ~0 albedo takes the grey (all-channel) estimate. A small floor on the
-   range weight keeps an isolated thin object at the spatial (bilinear-like) average instead of 0.
-4. ``WorkingResolution.predict`` multiplies the light by the full-resolution albedo: the diffuse part at the
-   output size, whose edges are the G-buffer's own (anti-aliased albedo = coverage x colour). compose.py then
-   adds EEVEE's ``rest`` as at full resolution.
+3. ``upsample_part``: the predicted diffuse part is divided by the reduced albedo (light = part / albedo; a
+   colour channel with albedo ~0 takes the grey estimate sum(part) / sum(albedo)), the reduced direct light
+   (soft when given) is subtracted, and the rest - the indirect light and the network's correction, smooth -
+   is brought back by ``upsample_light``, a joint bilateral upsample (Kopf et al. 2007) guided by the
+   full-resolution depth and normals: each output pixel averages the 3 x 3 working-resolution samples
+   around its block with weights spatial x exp(-(dlog z / sigma_z)^2 - (1 - n.n') / sigma_n) x confidence,
+   the confidence being the sample's mean albedo: samples where nothing was hit or the albedo is black
+   (albedo 0) carry no weight instead of a made-up light of 0. A small floor on the range weight keeps an
+   isolated thin object at the spatial average. Then the full-resolution direct light is added back, so hard
+   and soft shadow edges stay as sharp as the passes'.
+4. ... x the full-resolution albedo: the diffuse part at the output size, whose edges are the G-buffer's own
+   (an anti-aliased edge pixel's albedo is coverage x colour, so a half-covered sky-edge pixel gets half the
+   surface's diffuse light, never a dark rim). compose.py then adds EEVEE's ``rest`` as at full resolution.
+Vectorised numpy: the f x f sub-block positions are independent slices, run on ``default_threads()``
+threads (numpy releases the GIL). Measured in docs/working_res.md.
 """
 from __future__ import annotations
 
@@ -147,24 +151,30 @@ def pick(a: np.ndarray, f: int, idx: np.ndarray) -> np.ndarray:
     return out[..., 0] if a.ndim == 2 else out
 
 
-def reduce_groups(groups: dict, factor: int | None = None, size: tuple[int, int] | None = None) -> dict:
+def reduce_groups(groups: dict, factor: int | None = None, size: tuple[int, int] | None = None,
+                  threads: int | None = None) -> dict:
     """The groups at the working resolution: ``factor`` (int >= 1) or ``size`` (w, h: the smallest factor that
-    fits). Depth and normal come from one representative pixel per block; everything else is box-averaged."""
+    fits). Depth and normal come from one representative pixel per block; everything else is box-averaged.
+    ``threads``: groups reduced in parallel (numpy releases the GIL; None: default_threads())."""
     H, W = next(iter(groups.values())).shape[:2]
     f = int(factor) if factor is not None else factor_for(tuple(size), W, H)
     if f < 1:
         raise UserError(f"working resolution factor {factor}: must be >= 1")
     if f == 1:
         return dict(groups)
-    out = {}
     idx = representative_index(groups["depth"], f) if "depth" in groups else None
-    for name, a in groups.items():
+
+    def one(name):
         kind = ch.GROUPS[name].kind if name in ch.GROUPS else "light"
-        if kind in ("depth", "normal") and idx is not None:
-            out[name] = pick(a, f, idx)
-        else:
-            out[name] = box_reduce(a, f)
-    return out
+        return pick(groups[name], f, idx) if kind in ("depth", "normal") and idx is not None else box_reduce(groups[name], f)
+
+    names = list(groups)
+    n = max(1, min(threads or default_threads(), len(names)))
+    if n == 1:
+        return {k: one(k) for k in names}
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(n) as ex:
+        return dict(zip(names, ex.map(one, names)))
 
 
 # --- upsample --------------------------------------------------------------------------------------------
@@ -376,7 +386,8 @@ class WorkingResolution:
             if g not in groups:
                 raise UserError(f"working resolution {f}x needs the {g} group to reduce and upsample")
         t0 = time.perf_counter()
-        lo = reduce_groups(groups, f)
+        need = set(getattr(self.inner, "required", groups)) | {"depth", "normal", "albedo", "direct_soft", "direct"}
+        lo = reduce_groups({k: v for k, v in groups.items() if k in need}, f, threads=self.threads)
         t1 = time.perf_counter()
         part = self.inner.predict(lo, tile=tile)
         t2 = time.perf_counter()

@@ -153,3 +153,30 @@ def test_the_shipped_model_at_a_working_resolution_stays_exact_under_tiling():
     tiled = w.predict(g, tile=32)  # the network runs tiled at 128 x 72
     np.testing.assert_allclose(tiled, whole, rtol=1e-4, atol=1e-5)
     assert whole.shape == (144, 256, 3) and np.isfinite(whole).all() and (whole >= 0).all()
+
+
+def test_anti_aliased_sky_edge_pixels_keep_their_coverage_times_the_surface_light_not_a_dark_rim():
+    # geometry on the left, sky (clip-end depth, zero normal, zero albedo) on the right; the column between
+    # is half covered: EEVEE averages the albedo (0.5 x 0.6) but takes depth and normal from one sample (sky)
+    H, W, L = 32, 64, 2.0
+    z = np.full((H, W, 1), 4.0, np.float32)
+    n = np.zeros((H, W, 3), np.float32)
+    n[..., 2] = 1
+    alb = np.full((H, W, 3), 0.6, np.float32)
+    z[:, 29:], n[:, 29:], alb[:, 29:] = 1000.0, 0.0, 0.0
+    alb[:, 29] = 0.5 * 0.6
+    soft = np.zeros((H, W, 3), np.float32)
+
+    class Light:
+        target, spec, required, last_repaired = "ref_diffuse", ("albedo", "normal", "depth"), ("albedo", "normal", "depth"), 0
+
+        def predict(self, groups, tile=-1):
+            return groups["albedo"] * L
+
+    g = {"depth": z, "normal": n, "albedo": alb, "direct_soft": soft}
+    for f in (2, 4, 8):
+        for method in ("guided", "bilinear"):
+            out = wr.WorkingResolution(Light(), f"{f}x", method=method).predict(g)
+            np.testing.assert_allclose(out[:, 29], 0.3 * L, rtol=1e-4)  # the edge column: not darker
+            np.testing.assert_allclose(out[:, :29], 0.6 * L, rtol=1e-4)
+            assert (out[:, 30:] == 0).all()
