@@ -49,9 +49,9 @@ def predict_timed(pred, groups, target) -> tuple[np.ndarray, float, float, float
 
 
 def crop_sheet(path, imgs: dict, ref: np.ndarray, a: np.ndarray, b: np.ndarray, size=(160, 90), zoom=3) -> tuple:
-    """Side-by-side crops of the region where a and b differ most (box-filtered |a - b|)."""
+    """Side-by-side crops of the region where a and b differ most as shown (box-filtered |sRGB(a) - sRGB(b)|)."""
     from scipy.ndimage import uniform_filter
-    d = uniform_filter(np.abs(a - b).sum(-1), size=(size[1], size[0]), mode="constant")
+    d = uniform_filter(np.abs(images.srgb(a) - images.srgb(b)).sum(-1), size=(size[1], size[0]), mode="constant")
     H, W = d.shape
     cy, cx = np.unravel_index(np.argmax(d), d.shape)
     y0, x0 = int(np.clip(cy - size[1] // 2, 0, H - size[1])), int(np.clip(cx - size[0] // 2, 0, W - size[0]))
@@ -62,9 +62,10 @@ def crop_sheet(path, imgs: dict, ref: np.ndarray, a: np.ndarray, b: np.ndarray, 
     return x0, y0
 
 
-def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5) -> list[dict]:
+def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5, model=None) -> list[dict]:
     """Time and peak memory of each configuration at w x h on the benchmark's synthetic inputs (the work does
-    not depend on the content): the median of ``repeats`` after a warm-up, per stage."""
+    not depend on the content): the median of ``repeats`` after a warm-up, per stage. ``cold_mb``: the peak
+    growth of one cold prediction in a fresh process (bench.peak_memory; the default guided+direct upsample)."""
     g = bench.synthetic_groups(w, h)
     g["rest"] = np.zeros((h, w, 3), np.float32)
     rows = []
@@ -75,8 +76,10 @@ def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5) -> li
         row = dict(size=f"{w}x{h}", config=label(f, m, r), seconds=float(np.median([x[0] for x in runs])),
                    cpu_seconds=float(np.median([x[1] for x in runs])), peak_mb=max(x[2] for x in runs),
                    **{f"t_{k}": float(np.median([x[3][k] for x in runs])) for k in runs[0][3]})
+        if model is not None and (f == 1 or (m, r) == ("guided", True)):
+            row["cold_mb"] = bench.peak_memory(model, w, h, threads, working_res=f"{f}x").get("peak_mb")
         rows.append(row)
-        print(f"{row['size']:>9} {row['config']:<22} {row['seconds']:7.3f} s wall {row['cpu_seconds']:7.3f} s CPU "
+        print(f"{row.get('cold_mb') or 0:5.0f} MB cold  {row['size']:>9} {row['config']:<22} {row['seconds']:7.3f} s wall {row['cpu_seconds']:7.3f} s CPU "
               f"+{row['peak_mb']:4.0f} MB  " + " ".join(f"{k[2:]} {v:.3f}" for k, v in row.items() if k.startswith("t_")),
               flush=True)
     return rows
@@ -91,6 +94,7 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--factors", default="2,4,8")
     ap.add_argument("--threads", type=int, default=2, help="torch and upsample threads (2)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many samples a folder (0: all)")
+    ap.add_argument("--keys", nargs="*", default=None, help="only these sample keys (e.g. 000002)")
     ap.add_argument("--no-flip", action="store_true", help="skip FLIP (slow at 1080p)")
     ap.add_argument("--crops", help="folder for the side-by-side crop PNGs")
     ap.add_argument("--json", help="write every per-sample row here")
@@ -101,10 +105,10 @@ def main(argv=None) -> list[dict]:
     rows = []
     for z in a.time_at:
         w, h = (int(v) for v in z.lower().split("x"))
-        rows += time_at(pred, w, h, configs, a.threads)
+        rows += time_at(pred, w, h, configs, a.threads, model=a.model)
     for d in a.data:
         man = folder.open_folder(d)
-        keys = sorted(man["samples"])[: a.limit or None]
+        keys = [k for k in sorted(man["samples"]) if a.keys is None or k in a.keys][: a.limit or None]
         for i, key in enumerate(keys):
             path = folder.sample_path(d, key)
             planes, _ = exrio.read_exr(path)
