@@ -23,6 +23,10 @@ def test_the_setting_reads_full_auto_a_factor_or_a_size_and_names_a_bad_value():
     for bad in ("quarter", "0x", "0x10", "-2x"):
         with pytest.raises(UserError, match="working resolution"):
             wr.parse_setting(bad)
+    from ssgi.model.cliargs import ArgError, working_res
+    assert working_res("480x270") == "480x270"
+    with pytest.raises(ArgError, match="'quarter'"):  # argparse prints it after "argument --working-res:"
+        working_res("quarter")
 
 
 def test_box_reduce_averages_only_the_real_pixels_of_a_partial_border_block():
