@@ -12,8 +12,8 @@ composition), each in this process with VmHWM reset before it.
 Prints one table row per (folder, configuration): mean PSNR / SSIM / FLIP over the folder's samples, the median
 prediction time (wall and CPU of all threads: on a loaded machine the CPU time is the steadier number)
 and the largest peak-memory growth. ``--crops DIR`` writes, for the first sample of each folder,
-side-by-side crops (full resolution | 1/4 bilinear | 1/4 guided+direct | reference) of the region where the
-upsamples differ most, magnified 3x (sRGB of images.srgb8).
+side-by-side crops (full resolution | 1/4 bilinear | 1/4 guided | 1/4 guided+direct | reference) of the
+region where the bilinear and the guided upsample differ most as shown, magnified 3x (images.srgb8).
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def crop_sheet(path, imgs: dict, ref: np.ndarray, a: np.ndarray, b: np.ndarray, 
 def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5, model=None) -> list[dict]:
     """Time and peak memory of each configuration at w x h on the benchmark's synthetic inputs (the work does
     not depend on the content): the median of ``repeats`` after a warm-up, per stage. ``cold_mb``: the peak
-    growth of one cold prediction in a fresh process (bench.peak_memory; the default guided+direct upsample)."""
+    growth of one cold prediction in a fresh process (bench.peak_memory; the default guided upsample)."""
     g = bench.synthetic_groups(w, h)
     g["rest"] = np.zeros((h, w, 3), np.float32)
     rows = []
@@ -76,7 +76,7 @@ def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5, model
         row = dict(size=f"{w}x{h}", config=label(f, m, r), seconds=float(np.median([x[0] for x in runs])),
                    cpu_seconds=float(np.median([x[1] for x in runs])), peak_mb=max(x[2] for x in runs),
                    **{f"t_{k}": float(np.median([x[3][k] for x in runs])) for k in runs[0][3]})
-        if model is not None and (f == 1 or (m, r) == ("guided", True)):
+        if model is not None and (f == 1 or (m, r) == ("guided", False)):
             row["cold_mb"] = bench.peak_memory(model, w, h, threads, working_res=f"{f}x").get("peak_mb")
         rows.append(row)
         print(f"{row.get('cold_mb') or 0:5.0f} MB cold  {row['size']:>9} {row['config']:<22} {row['seconds']:7.3f} s wall {row['cpu_seconds']:7.3f} s CPU "
@@ -135,8 +135,8 @@ def main(argv=None) -> list[dict]:
             if a.crops and i == 0 and "1/4 bilinear" in out:
                 Path(a.crops).mkdir(parents=True, exist_ok=True)
                 name = Path(a.crops) / f"{Path(d).name}_{key}.png"
-                pick = {k: out[k] for k in ("full", "1/4 bilinear", "1/4 guided+direct")}
-                xy = crop_sheet(name, pick, g["ref"], out["1/4 bilinear"], out["1/4 guided+direct"])
+                pick = {k: out[k] for k in ("full", "1/4 bilinear", "1/4 guided", "1/4 guided+direct")}
+                xy = crop_sheet(name, pick, g["ref"], out["1/4 bilinear"], out["1/4 guided"])
                 print(f"crops: {name} at x,y={xy}: " + " | ".join(list(pick) + ["reference"]), file=sys.stderr)
     print(f"{'data':<14} {'size':>9} {'configuration':<22} {'PSNR':>6} {'SSIM':>6} {'FLIP':>6} {'time s':>7} {'cpu s':>6} {'+MB':>6}")
     seen = []

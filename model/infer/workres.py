@@ -18,13 +18,13 @@ the output resolution as *diffuse light* guided by the full-resolution G-buffer:
 2. The model predicts at the working resolution (tiled there, exactly as at any size: ``Predictor.predict``).
 3. ``upsample_part``: the predicted diffuse part is divided by the reduced albedo (light = part / albedo; a
    colour channel with albedo ~0 takes the grey estimate sum(part) / sum(albedo)), the reduced direct light
-   (soft when given) is subtracted, and the rest - the indirect light and the network's correction, smooth -
+   (soft when given) is subtracted with ``residual`` (off by default, docs/working_res.md), and the rest - the indirect light and the network's correction, smooth -
    is brought back by ``upsample_light``, a joint bilateral upsample (Kopf et al. 2007) guided by the
    full-resolution depth and normals: each output pixel averages the 3 x 3 working-resolution samples
    around its block with weights spatial x exp(-(dlog z / sigma_z)^2 - (1 - n.n') / sigma_n) x confidence,
    the confidence being the sample's mean albedo: samples where nothing was hit or the albedo is black
    (albedo 0) carry no weight instead of a made-up light of 0. A small floor on the range weight keeps an
-   isolated thin object at the spatial average. Then the full-resolution direct light is added back, so hard
+   isolated thin object at the spatial average. With ``residual`` the full-resolution direct light is added back, so hard
    and soft shadow edges stay as sharp as the passes'.
 4. ... x the full-resolution albedo: the diffuse part at the output size, whose edges are the G-buffer's own
    (an anti-aliased edge pixel's albedo is coverage x colour, so a half-covered sky-edge pixel gets half the
@@ -324,7 +324,7 @@ def base_light(groups: dict) -> np.ndarray | None:
     return None
 
 
-def upsample_part(part_lo: np.ndarray, lo: dict, hi: dict, method: str = "guided", residual: bool = True,
+def upsample_part(part_lo: np.ndarray, lo: dict, hi: dict, method: str = "guided", residual: bool = False,
                   **kw) -> np.ndarray:
     """A diffuse part predicted at the working resolution -> the diffuse part at the output resolution:
     light = part / albedo (low res); with ``residual`` the direct light (``base_light``) is taken out before
@@ -348,11 +348,13 @@ def upsample_part(part_lo: np.ndarray, lo: dict, hi: dict, method: str = "guided
 class WorkingResolution:
     """Any predictor (``.predict(groups, tile=-1)``, ``.target``, ``.spec``, ``.required``) run at a working
     resolution. ``setting``: "full", "auto", "Nx", "WxH" or an int factor (parse_setting). ``method``:
-    "guided" or "bilinear"; ``residual``: keep the full-resolution direct light (upsample_part); ``threads``: the
+    "guided" or "bilinear"; ``residual``: keep the full-resolution direct light (upsample_part; off by default:
+    +0.04-0.05 dB but the 4-sample soft direct pass's grain and the hard pass's steps come back, and SSIM drops,
+    docs/working_res.md); ``threads``: the
     upsample's (upsample_light). Everything else (``spec``, ``required``, ``last_repaired``, ...) is the inner
     predictor's. A whole-image (``ref``) model's prediction is upsampled as is (confidence: geometry)."""
 
-    def __init__(self, predictor, setting="auto", method: str = "guided", residual: bool = True,
+    def __init__(self, predictor, setting="auto", method: str = "guided", residual: bool = False,
                  threads: int | None = None):
         if method not in ("guided", "bilinear"):
             raise UserError(f"upsample method {method!r}: expected 'guided' or 'bilinear'")

@@ -133,7 +133,7 @@ def test_the_wrapper_runs_the_inner_predictor_at_the_working_size_and_keeps_shad
     g = _room()
     inner = Analytic()
     full = inner.predict(g)
-    w = wr.WorkingResolution(inner, "4x")
+    w = wr.WorkingResolution(inner, "4x", residual=True)
     assert w.target == "ref_diffuse" and w.spec == inner.spec and w.required == inner.required
     out = w.predict(g)
     assert inner.sizes[-1] == (18, 32) and out.shape == full.shape and w.last_factor == 4
