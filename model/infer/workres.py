@@ -29,6 +29,7 @@ the output resolution as *diffuse light* guided by the full-resolution G-buffer:
 4. ... x the full-resolution albedo: the diffuse part at the output size, whose edges are the G-buffer's own
    (an anti-aliased edge pixel's albedo is coverage x colour, so a half-covered sky-edge pixel gets half the
    surface's diffuse light, never a dark rim). compose.py then adds EEVEE's ``rest`` as at full resolution.
+Over 400 lines by a few: reduce, upsample and the wrapper are one algorithm with one set of conventions.
 Vectorised numpy: the f x f sub-block positions are independent slices, run on ``default_threads()``
 threads (numpy releases the GIL). Measured in docs/working_res.md.
 """
