@@ -11,6 +11,7 @@ They raise ``ArgError``, which is both an ``argparse.ArgumentTypeError`` (argpar
     parse_size("240x135")  -> Size(width=240, height=135)
     parse_frames("1-4,10") -> (1, 2, 3, 4, 10)
     parse_shard("0/4")     -> Shard(index=0, count=4);  Shard.take(items) -> items[0::4]
+    working_res("4x")      -> "4x" (checked by model/infer/workres.parse_setting)
 """
 from __future__ import annotations
 
@@ -74,6 +75,17 @@ def parse_size(text: str) -> Size:
         if not 1 <= v <= MAX_SIZE:
             raise ArgError(f"{text!r}: {side} {v} is out of range 1..{MAX_SIZE}")
     return Size(w, h)
+
+
+def working_res(text: str) -> str:
+    """``auto`` | ``full`` | ``Nx`` | ``WxH``: the resolution the network predicts at (model/infer/workres.py);
+    returned as given once it parses."""
+    from .infer.workres import parse_setting
+    try:
+        parse_setting(text)
+    except UserError as e:
+        raise ArgError(str(e)) from None
+    return str(text)
 
 
 def parse_frames(text: str) -> tuple[int, ...]:

@@ -161,6 +161,10 @@ def register_extra():
     bpy.types.CompositorNodeGroup.ssgi_model = bpy.props.StringProperty(
         name="Model", subtype="FILE_PATH", default="",
         description="SSGI model checkpoint (.pt); empty uses the scene's model or the shipped default")
+    bpy.types.CompositorNodeGroup.ssgi_working_res = bpy.props.StringProperty(
+        name="Working Resolution", default="",
+        description="Resolution the network predicts at, upsampled with the full-resolution G-buffer: auto (1/4 "
+                    "linear from 960 px wide, else full), full, 2x/4x/8x (1/N per axis) or a size such as 480x270")
     for menu, fn in _MENUS:
         m = getattr(bpy.types, menu, None)
         if m is not None:
@@ -176,5 +180,6 @@ def unregister_extra():
         m = getattr(bpy.types, menu, None)
         if m is not None:
             m.remove(fn)
-    if hasattr(bpy.types.CompositorNodeGroup, "ssgi_model"):
-        del bpy.types.CompositorNodeGroup.ssgi_model
+    for prop in ("ssgi_model", "ssgi_working_res"):
+        if hasattr(bpy.types.CompositorNodeGroup, prop):
+            delattr(bpy.types.CompositorNodeGroup, prop)

@@ -79,17 +79,19 @@ sys.path.insert(0, sys.argv[1])
 import cli
 cli.load_package()
 from ssgi.model.infer import bench
-print("PEAK" + json.dumps(bench.cold_prediction(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]))))
+print("PEAK" + json.dumps(bench.cold_prediction(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]),
+                                                sys.argv[6])))
 """
 
 
-def cold_prediction(model, w: int, h: int, threads: int = 1) -> dict:
+def cold_prediction(model, w: int, h: int, threads: int = 1, working_res: str = "full") -> dict:
     """Load ``model`` and predict once at ``w`` x ``h``: the growth of the process's peak resident set over
     its resident set just before ``predict`` (model and inputs loaded), and the time of that first prediction.
     Meaningful in a fresh process only (``peak_memory`` runs it in one)."""
     from . import predictor
+    from .workres import WorkingResolution
 
-    pred = predictor.load_predictor(model, num_threads=threads, runtime="torch")
+    pred = WorkingResolution(predictor.load_predictor(model, num_threads=threads, runtime="torch"), working_res)
     g = synthetic_groups(w, h)
     before = _vm("VmRSS")
     t = time.perf_counter()
@@ -98,12 +100,14 @@ def cold_prediction(model, w: int, h: int, threads: int = 1) -> dict:
     return dict(peak_mb=(_vm("VmHWM") - before) / 2 ** 20, first_ms=1000 * dt)
 
 
-def peak_memory(model, w: int, h: int, threads: int = 1, timeout: float = 600) -> dict:
+def peak_memory(model, w: int, h: int, threads: int = 1, timeout: float = 600, working_res: str = "full") -> dict:
     """Peak memory of one prediction at ``w`` x ``h`` in a fresh Python process (nothing to reuse): the
     process's peak resident set during ``predict`` minus its resident set just before (model and inputs
-    loaded). Also the time of that first, cold prediction. On a failure: ``peak_mb`` None and ``error``."""
+    loaded). Also the time of that first, cold prediction, at ``working_res`` (model/infer/workres.py). On a
+    failure: ``peak_mb`` None and ``error``."""
     root = Path(__file__).resolve().parents[2]
-    p = subprocess.run([sys.executable, "-c", _PEAK_CHILD, str(root), str(model), str(w), str(h), str(threads)],
+    p = subprocess.run([sys.executable, "-c", _PEAK_CHILD, str(root), str(model), str(w), str(h), str(threads),
+                        str(working_res)],
                        capture_output=True, text=True, timeout=timeout)
     line = next((l for l in p.stdout.splitlines() if l.startswith("PEAK")), None)
     if p.returncode != 0 or line is None:

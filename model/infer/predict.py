@@ -21,10 +21,13 @@ def write_rgb_exr(path, rgb: np.ndarray, half: bool = False) -> None:
     exrio.write_exr(path, {c: rgb[..., i] for i, c in enumerate("RGB")}, half=half)
 
 
-def predict_file(model, input_path, out, png=None, threads=None, tile=None, runtime="auto", device="auto") -> dict:
+def predict_file(model, input_path, out, png=None, threads=None, tile=None, runtime="auto", device="auto",
+                 working_res="full") -> dict:
     from .predictor import DEFAULT_TILE, load_predictor
+    from .workres import WorkingResolution
 
-    pred = load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE, runtime=runtime, device=device)
+    pred = WorkingResolution(load_predictor(model, num_threads=threads, tile=tile or DEFAULT_TILE, runtime=runtime,
+                                            device=device), working_res)
     input_path = Path(input_path)
     planes, _ = exrio.read_exr(input_path)
     lacking = [c for g in pred.required for c in ch.GROUPS[g].channels if c not in planes]
@@ -34,13 +37,13 @@ def predict_file(model, input_path, out, png=None, threads=None, tile=None, runt
     present = tuple(g for g, grp in ch.GROUPS.items() if all(c in planes for c in grp.channels))
     groups = exrio.read_sample(input_path, present, strict=False)
     t = time.perf_counter()
-    rgb = pred.predict(groups)
+    rgb = pred.predict({g: a for g, a in groups.items() if g in pred.required or g in ("depth", "normal", "albedo")})
     dt = time.perf_counter() - t
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     write_rgb_exr(out, rgb)
     res = dict(out=str(out), size=list(rgb.shape[:2]), seconds=dt, repaired_pixels=pred.last_repaired,
                model=str(model), inputs=ch.format_spec(pred.spec), runtime=pred.runtime, device=pred.device,
-               model_file=str(pred.path))
+               model_file=str(pred.path), working_factor=pred.last_factor)
     if ch.TARGET_GROUP in groups:
         ref = groups[ch.TARGET_GROUP]
         if np.isfinite(ref).all():

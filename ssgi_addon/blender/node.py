@@ -20,7 +20,8 @@ what it holds (``ssgi_state`` = "prediction"/"placeholder", scene, frame, model)
 The node's setting (the model file) is the string ID property ``ssgi_model`` on the group node; the add-on
 registers it as an RNA property of ``CompositorNodeGroup`` so it can be drawn, and without the add-on it
 stays in the file as a plain ID property. Empty means the scene's model (``scene.ssgi.model_path``) or the
-shipped default model.
+shipped default model. The second setting, ``ssgi_working_res`` (same mechanism), is the resolution the
+network predicts at (model/infer/workres.py: "auto", "full", "4x", "480x270"; missing or empty: "auto").
 """
 from __future__ import annotations
 
@@ -34,6 +35,7 @@ NODE_LABEL = "SSGI"
 MARKER = "ssgi_node"  # ID property on the inner tree: the layout version below
 TREE_VERSION = 1
 MODEL_PROP = "ssgi_model"
+WORKRES_PROP = "ssgi_working_res"  # "auto" | "full" | "Nx" | "WxH" (model/infer/workres.py)
 PLACEHOLDER = (1.0, 0.0, 1.0, 1.0)  # magenta: "this is not a prediction"
 NOTE = "SSGI: shows a magenta placeholder unless rendered with Render SSGI (bpy.ops.ssgi.render / cli.py render)"
 DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "models" / "ssgi_default.pt"
@@ -163,6 +165,21 @@ def resolve_model(scene, override: str | None = None) -> Path:
     if not cand:
         return DEFAULT_MODEL
     return Path(bpy.path.abspath(cand)).expanduser()
+
+
+def node_working_res(node) -> str:
+    return str(node.get(WORKRES_PROP, "") or "")
+
+
+def resolve_working_res(scene, override: str | None = None) -> str:
+    """The working-resolution setting: ``override``, else the first SSGI node's that has one, else "auto"."""
+    if override:
+        return str(override)
+    for n in ssgi_nodes(scene.compositing_node_group):
+        if node_working_res(n):
+            return node_working_res(n)
+    from ...model.infer.workres import AUTO
+    return AUTO
 
 
 # --- the prediction image -----------------------------------------------------------------------------

@@ -20,7 +20,7 @@ def run(args) -> dict:
 
     cfg = render.RenderConfig(blend=args.blend, out=args.out, frames=args.frames, model=args.model,
                               scene=args.scene, samples=args.samples, setup=args.setup, save_passes=args.save_passes,
-                              runtime=args.runtime, device=args.device)
+                              runtime=args.runtime, device=args.device, working_res=args.working_res)
     frames = len(args.frames) if args.frames else 1
     try:
         from tqdm import tqdm
@@ -54,4 +54,8 @@ def register_cli(sub) -> None:
                    help="also write each frame's G-buffer (the model's input) as DIR/NNNNNN.exr (32-bit)")
     from .train import add_runtime_args
     add_runtime_args(p)
+    p.add_argument("--working-res", type=cliargs.working_res, default=None, metavar="auto|full|Nx|WxH",
+                   help="resolution the network predicts at, upsampled with the full-resolution G-buffer: auto "
+                        "(1/4 per axis for outputs >= 960 px wide, else full), full, 4x (1/4 per axis) or a size "
+                        "such as 480x270 (default: the SSGI node's setting, else auto; docs/working_res.md)")
     p.set_defaults(func=run)

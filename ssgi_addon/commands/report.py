@@ -77,6 +77,9 @@ def register_cli(sub) -> None:
                    help="reference samples per frame of the camera move (default: the dataset's reference setting)")
     p.add_argument("--threads", type=cliargs.positive_int, default=D.threads,
                    help="torch threads for the predictions (default %(default)s, the add-on's default)")
+    p.add_argument("--working-res", type=cliargs.working_res, default=D.working_res, metavar="auto|full|Nx|WxH",
+                   help="resolution the models predict at, as the SSGI node's setting (default %(default)s: 1/4 per "
+                        "axis from 960 px wide, else full; docs/working_res.md)")
     p.add_argument("--no-fit-baseline", action="store_true",
                    help="with --data and no linear model among --models, do not fit one (closed form, seconds)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
@@ -91,6 +94,7 @@ def config(args) -> ReportConfig:
                         eevee_samples=args.eevee_samples, eevee_high_samples=args.eevee_high_samples,
                         ssgi_samples=args.ssgi_samples, sizes=tuple(args.sizes), scaling=not args.no_scaling, temporal_frames=args.temporal_frames,
                         temporal_ref_samples=args.temporal_ref_samples, threads=args.threads,
+                        working_res=args.working_res,
                         fit_baseline=not args.no_fit_baseline,
                         command="cli.py " + " ".join(shlex.quote(a) for a in argv))
 

@@ -6,7 +6,7 @@ import json
 import os
 import sys
 
-from ...model.cliargs import existing_file
+from ...model.cliargs import existing_file, working_res
 from ..pipeline.learn import BaselineConfig, ExportConfig, PredictConfig
 from . import command_line
 
@@ -64,7 +64,7 @@ def run_predict(args) -> dict:
     from ..pipeline import learn
     res = learn.predict(PredictConfig(model=args.model, input=args.input, out=args.out, png=args.png,
                                       threads=args.threads, tile=args.tile, runtime=args.runtime,
-                                      device=args.device))
+                                      device=args.device, working_res=args.working_res))
     msg = (f"wrote {res['out']} ({res['size'][1]}x{res['size'][0]}) in {res['seconds'] * 1000:.0f} ms "
            f"({res['runtime']} on {res['device']})")
     if "psnr" in res:
@@ -181,6 +181,9 @@ def register_cli(sub) -> None:
     p.add_argument("--threads", type=int, help="torch / onnxruntime threads")
     p.add_argument("--tile", type=int, help="tile size for big images (default 1024)")
     add_runtime_args(p)
+    p.add_argument("--working-res", type=working_res, default="auto", metavar="auto|full|Nx|WxH",
+                   help="resolution the network predicts at, upsampled with the sample's full-resolution G-buffer "
+                        "(default auto: 1/4 per axis for inputs >= 960 px wide, else full)")
     p.set_defaults(func=run_predict)
 
     p = sub.add_parser("export", help="export a checkpoint as ONNX (runs without torch, in the bundled onnxruntime)",

@@ -59,6 +59,7 @@ class PredictConfig:
     tile: int | None = None  # tile size for big images (None: the Predictor's)
     runtime: str = "auto"  # model/infer/contract.RUNTIMES: auto (onnxruntime with M.onnx beside M.pt), torch, onnx
     device: str = "auto"  # contract.DEVICES: auto, cpu, cuda, mps (a GPU that is absent: the CPU)
+    working_res: str = "auto"  # network resolution (model/infer/workres.py): auto|full|Nx|WxH
 
     def check(self) -> None:
         for name in ("threads", "tile"):
@@ -71,7 +72,8 @@ def predict(cfg: PredictConfig) -> dict:
     from ...model.infer.predict import predict_file
     cfg.check()
     return predict_file(cfg.model, cfg.input, cfg.out, png=cfg.png, threads=cfg.threads, tile=cfg.tile,
-                        runtime=cfg.runtime, device=cfg.device)
+                        runtime=cfg.runtime, device=cfg.device,
+                        working_res=cfg.working_res)
 
 
 @dataclass

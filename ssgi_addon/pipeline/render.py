@@ -9,7 +9,8 @@ Per frame:
 1. ``passes.render_gbuffer(scene, groups)`` renders the direct-only G-buffer the model needs (plus depth and
    EEVEE's Combined for the world pixels). Every scene setting it changes (engine, EEVEE settings, light
    data, view-layer passes, output format) is put back afterwards by ``scene_state.preserved()``.
-2. The model predicts linear HDR RGB. Pixels with no geometry (depth at the camera's clip end, or zero alpha)
+2. The model predicts linear HDR RGB, at the working resolution (``working_res``, the node's setting; default
+   "auto": 1/4 linear from 960 px wide) and upsampled with the full-resolution G-buffer (model/infer/workres.py). Pixels with no geometry (depth at the camera's clip end, or zero alpha)
    keep EEVEE's Combined colour. Alpha is not predicted: the node takes it from its Image input.
 3. The prediction goes into the "SSGI Prediction" image (node.py). The pass render's result is saved as a
    multilayer EXR and loaded into Image nodes that stand in for the tree's Render Layers nodes (an Image
@@ -117,7 +118,7 @@ class RenderSession:
     def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
                  samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
                  predictor=None, checks: bool = True, runtime: str | None = None, device: str | None = None,
-                 pass_options: dict | None = None):
+                 pass_options: dict | None = None, working_res: str | None = None):
         self.scene = scene
         self.frames = list(frames) if frames is not None else [scene.frame_current]
         if not self.frames:
@@ -134,6 +135,14 @@ class RenderSession:
                             f"SSGI renders write image files: choose an image format in Output Properties")
         self.model_path = ssgi_node.resolve_model(scene, model)
         self.predictor = predictor if predictor is not None else load_model(self.model_path, runtime, device)
+        # the network runs at the working resolution (model/infer/workres.py; the node's setting by default)
+        from ...model.infer.workres import WorkingResolution, parse_setting
+        self.working_res = ssgi_node.resolve_working_res(scene, working_res)
+        try:
+            parse_setting(self.working_res)
+        except UserError as e:
+            raise UserError(f"SSGI node of scene {scene.name!r}: {e}") from None
+        self.predictor = WorkingResolution(self.predictor, self.working_res)
         self.spec = tuple(self.predictor.spec)
         miss = missing_passes(scene, self.spec)
         if miss:
@@ -192,9 +201,11 @@ class RenderSession:
                 save_multilayer(scene, exr)
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
-            pred = self.predictor.predict({g: groups[g] for g in ch.required_groups(self.spec) + ("normal",)})
+            want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
+            pred = self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
             rgb = compose(pred, groups, scene.camera.data.clip_end, self.target)
             info["t_predict"] = time.perf_counter() - t0
+            info["working_factor"] = self.predictor.last_factor
             info["rss_mb_predict"] = peak_rss_mb()
             info["repaired_pixels"] = self.predictor.last_repaired  # non-finite inputs (normalize.repair)
             t0 = time.perf_counter()
@@ -303,6 +314,7 @@ class RenderConfig:
     save_passes: str | None = None  # also write each frame's G-buffer as SAVE_PASSES/NNNNNN.exr
     runtime: str | None = None  # what runs the network (model/infer/contract.RUNTIMES; None: preferences/auto)
     device: str | None = None  # where (contract.DEVICES; None: preferences/auto)
+    working_res: str | None = None  # network resolution: auto|full|Nx|WxH (None: the SSGI node's, else auto)
 
     def check(self) -> None:
         from ..blender.blendfile import check_blend
@@ -311,6 +323,12 @@ class RenderConfig:
             raise UserError("--frames: no frames to render")
         if self.samples is not None and self.samples < 1:
             raise UserError(f"--samples {self.samples}: must be >= 1")
+        if self.working_res is not None:
+            from ...model.infer.workres import parse_setting
+            try:
+                parse_setting(self.working_res)
+            except UserError as e:
+                raise UserError(f"--working-res: {e}") from None
 
 
 def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
@@ -331,7 +349,8 @@ def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
               f"output format is {before})", file=sys.stderr)
     frames = list(cfg.frames) if cfg.frames else [scene.frame_current]
     session = RenderSession(scene, frames, model=cfg.model, out=cfg.out, samples=cfg.samples,
-                            save_passes=cfg.save_passes, runtime=cfg.runtime, device=cfg.device)
+                            save_passes=cfg.save_passes, runtime=cfg.runtime, device=cfg.device,
+                            working_res=cfg.working_res)
     print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path} "
           f"({session.predictor.runtime} on {session.predictor.device})",
           file=sys.stderr)

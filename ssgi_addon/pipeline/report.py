@@ -42,6 +42,7 @@ class ReportConfig:
     temporal_frames: int = 4  # frames of the camera move for temporal stability (0 or 1 skips it)
     temporal_ref_samples: int | None = None  # reference samples per frame of it (None: the dataset's)
     threads: int = 1  # torch threads for the predictions (the add-on's default)
+    working_res: str = "auto"  # the network's resolution, as the node's setting (model/infer/workres.py)
     fit_baseline: bool = True  # with data and no linear model among models, fit one (closed form, seconds)
     command: str | None = None  # recorded in report.json
 
@@ -70,6 +71,11 @@ class ReportConfig:
         for name in ("reference_scenes", "temporal_frames"):
             if int(getattr(self, name)) < 0:
                 raise UserError(f"--{name.replace('_', '-')} {getattr(self, name)}: must be >= 0")
+        from ...model.infer.workres import parse_setting
+        try:
+            parse_setting(self.working_res)
+        except UserError as e:
+            raise UserError(f"--working-res: {e}") from None
         if self.scaling and not self.sizes:
             raise UserError("--sizes: give at least one size (or turn the scaling off: --no-scaling)")
 
@@ -144,6 +150,8 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
         preds.append((bl, predictor.load_predictor(bl, num_threads=cfg.threads, runtime="torch")))
         notes.append(f"the linear baseline was fitted by this run (model/learn/baseline.py, closed form) on the training "
                      f"split of {cfg.data}: {bl}")
+    from ...model.infer.workres import WorkingResolution
+    preds = [(p, WorkingResolution(pr, cfg.working_res)) for p, pr in preds]
     n_net = sum(1 for _, pr in preds if pr.kind != "linear")
     if n_net < 3:
         notes.append(f"only {n_net} network size(s) given; issue 6 asks for at least 3 (small to large)")

@@ -336,7 +336,9 @@ class ReportRun:
             for key, (path, pred) in self._model_keys.items():
                 r = bench.time_predictor(pred, w, h, repeats=3 if w * h < 1e6 else 2)
                 r["peak_mb_in_process"] = r.pop("peak_mb")
-                fresh = bench.peak_memory(path, w, h, self.s.threads)
+                setting = getattr(pred, "setting", "full")  # a WorkingResolution's (report.run wraps every model)
+                fresh = bench.peak_memory(path, w, h, self.s.threads, working_res=setting if isinstance(setting, str)
+                                          else f"{pred.factor(w, h)}x")
                 r.update(peak_mb=fresh.get("peak_mb"), cold_ms=fresh.get("first_ms"))
                 out["models"].setdefault(key, []).append(dict(size=z, **r))
                 self.log(f"scaling {z}: {Path(path).name} {r['ms']:.0f} ms, peak +{r['peak_mb'] or 0:.0f} MB")

@@ -462,6 +462,7 @@ json.dump({{"panel_ops": sorted(set(o for o, _ in rec.operators())), "panel_prop
            "handler": node_ops.ssgi_render.on_render_pre in bpy.app.handlers.render_pre}}, open({str(res)!r}, "w"))
 ssgi.unregister()
 assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_model")
+assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_working_res")
 assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
 ''', timeout=300)
     r = json.loads(res.read_text())
@@ -471,7 +472,7 @@ assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
     assert r["n"] == 5
     assert r["passes"] == [True, True, True, True] and r["ao"] is False
     assert r["add_menu"] and r["render_menu"] and r["handler"]
-    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model"]
+    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model", "ssgi_working_res"]
 
 
 # ---------------------------------------------------------------- ops.TimerSteps: the modal loop of Bake and Render SSGI
