@@ -50,3 +50,13 @@ meta = {
 }
 out.with_suffix(".json").write_text(json.dumps(meta, indent=1, default=str))
 print(f"shipped {out} ({meta['bytes']} bytes), val PSNR {ck['best'].get('val_psnr'):.2f} dB")
+# the ONNX export beside it (issue 17): the node renders it without torch; tests check it is the reproducible
+# export of this very .pt
+sys.path.insert(0, str(ROOT))
+import cli  # noqa: E402
+
+cli.load_package()
+from ssgi.model.infer import export  # noqa: E402
+
+res = export.export(out, out.with_suffix(".onnx"), command=f".venv/bin/python cli.py export --model models/{out.name}")
+print(f"exported {res['out'] if 'out' in res else out.with_suffix('.onnx')} (parity max rel {res['parity']['max_rel']:.1e})")
