@@ -143,7 +143,7 @@ def studio_params(seed: int) -> dict:
                             scale=(_r(rng.uniform(0.8, 1.6)), _r(rng.uniform(0.6, 1.1)), _r(ph / 2)),
                             radius=_r(math.sqrt(2.6 ** 2 + 1.2 ** 2 + ph ** 2) / 2), material=m))
         floor_top = ph
-    objects += [o for o in _objects(rng, rng.randint(1, 5), floor_top)]
+    objects += _objects(rng, rng.randint(1, 5), floor_top)
     props = objects[1:] if floor_top else objects
     n = len(props)
     target = (sum(o["location"][0] for o in props) / n, sum(o["location"][1] for o in props) / n,
