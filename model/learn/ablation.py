@@ -36,15 +36,22 @@ def _carry(net, arch: dict, columns) -> torch.nn.Module:
     return new
 
 
+def _columns_of(sub, full, why: str) -> list[int]:
+    """The input channels (indices into ``full``'s layout) of the groups of ``sub``, which must be a
+    sub-sequence of ``full`` (UserError ``why`` if not): the columns drop_inputs keeps and grow_inputs fills."""
+    if [g for g in full if g in sub] != list(sub):
+        raise UserError(why)
+    lay = normalize.layout(full)
+    return [i for g in sub for i in range(lay[g].start, lay[g].stop)]
+
+
 def drop_inputs(net, new_spec) -> torch.nn.Module:
     """A network for ``new_spec`` (a sub-sequence of ``net``'s input spec, same order) with ``net``'s weights:
     every weight that reads the input keeps the columns of the kept channels (``_carry``)."""
     old_spec = tuple(net.arch["inputs"])
     new_spec = ch.parse_spec(new_spec)
-    if [g for g in old_spec if g in new_spec] != list(new_spec):
-        raise UserError(f"inputs {ch.format_spec(new_spec)} are not a sub-sequence of {ch.format_spec(old_spec)}")
-    lay = normalize.layout(old_spec)
-    kept = [i for g in new_spec for i in range(lay[g].start, lay[g].stop)]
+    kept = _columns_of(new_spec, old_spec, f"inputs {ch.format_spec(new_spec)} are not a sub-sequence of "
+                                           f"{ch.format_spec(old_spec)}")
     return _carry(net, dict(net.arch, inputs=list(new_spec)),
                   lambda o, w, base: o[:, list(range(base)) + [base + i for i in kept]].clone())
 
@@ -56,10 +63,8 @@ def grow_inputs(net, new_spec, target: str | None = None) -> torch.nn.Module:
     predicts (default: ``net``'s)."""
     old_spec = tuple(net.arch["inputs"])
     new_spec = ch.parse_spec(new_spec)
-    if [g for g in new_spec if g in old_spec] != list(old_spec):
-        raise UserError(f"inputs {ch.format_spec(new_spec)} do not hold {ch.format_spec(old_spec)} in that order")
-    lay = normalize.layout(new_spec)
-    kept = [i for g in old_spec for i in range(lay[g].start, lay[g].stop)]
+    kept = _columns_of(old_spec, new_spec, f"inputs {ch.format_spec(new_spec)} do not hold "
+                                           f"{ch.format_spec(old_spec)} in that order")
 
     def columns(o, w, base):
         grown = torch.zeros_like(w)
