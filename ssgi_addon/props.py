@@ -18,7 +18,9 @@ ROOM_MODES = [("diffuse", "Diffuse", "A box of diffuse primitives lit by lamps (
               ("artist", "Artist", "Principled, metal, glass and textured materials, emissive lights, skies, "
                                    "open rooms and exteriors (docs/artist_rooms.md)"),
               ("studio", "Studio", "A cyclorama in a dark stage lit by softboxes, metal and glass props "
-                                   "(docs/artist_rooms.md)")]
+                                   "(docs/artist_rooms.md)"),
+              ("interior", "Interior", "Bright white and beige plaster rooms, closed or with windows, artist "
+                                       "materials and lights (docs/artist_rooms.md)")]
 
 
 class SSGI_SceneSettings(bpy.types.PropertyGroup):

@@ -27,19 +27,22 @@ SHADING = ("Roughness", "Specular IOR Level", "Metallic", "Transmission Weight",
 # --------------------------------------------------------------------------------------------- parameters
 
 
-MODES = ("diffuse", "artist", "studio")
+MODES = ("diffuse", "artist", "studio", "interior")
 
 
 def room_params(seed: int, mode: str = "diffuse") -> dict:
     """Every random choice of room ``seed`` as plain data (deterministic; no bpy). ``mode`` "diffuse": the
     seed's box of diffuse primitives and lamps; "artist": room_artist.py's artist scenes; "studio":
-    room_studio.py's cycloramas lit by softboxes."""
+    room_studio.py's cycloramas lit by softboxes; "interior": room_interior.py's bright plaster rooms."""
     if mode == "artist":
         from .room_artist import artist_params
         return artist_params(seed)
     if mode == "studio":
         from .room_studio import studio_params
         return studio_params(seed)
+    if mode == "interior":
+        from .room_interior import interior_params
+        return interior_params(seed)
     if mode != "diffuse":
         raise ValueError(f"room mode {mode!r}: expected one of {', '.join(MODES)}")
     rng = random.Random(int(seed))
@@ -230,7 +233,7 @@ def build_room(seed: int, scene=None, mode: str = "diffuse"):
     if scene is None:
         scene = bpy.data.scenes.new(f"SSGI Room {seed}")
     clear_room(scene)
-    if mode in ("artist", "studio"):
+    if mode in ("artist", "studio", "interior"):
         from .room_artist_build import build
         build(prm, scene)
         scene["ssgi_room_seed"], scene["ssgi_room_mode"] = int(seed), mode
@@ -288,7 +291,7 @@ def build_room(seed: int, scene=None, mode: str = "diffuse"):
 def describe_scene(scene) -> dict:
     """Names, transforms, colours and light settings of ``scene``'s room objects (for tests and manifests)."""
     out = {}
-    artist = scene.get("ssgi_room_mode") in ("artist", "studio")  # (diffuse rooms: the description they always had)
+    artist = scene.get("ssgi_room_mode") in ("artist", "studio", "interior")  # (diffuse rooms: the description they always had)
     for o in sorted(scene.objects, key=lambda o: o.name):
         # matrix_basis, not matrix_world: the latter is stale until the depsgraph is evaluated
         d = dict(type=o.type, location=tuple(round(v, 5) for v in o.location),

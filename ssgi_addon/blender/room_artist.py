@@ -217,18 +217,30 @@ def artist_params(seed: int) -> dict:
     kind = _pick(rng, P_KIND)
     if kind == "exterior":
         return _exterior(rng, int(seed))
+    return room_scene(rng, int(seed), kind)
+
+
+def _artist_wall(rng, wall: str) -> tuple:
+    return colour(rng, 0.6, 0.2, 0.85)
+
+
+def room_scene(rng, seed: int, kind: str, mode: str = "artist", wall_base=_artist_wall, open_style=None,
+               tex_wall: float = P_TEX_WALL) -> dict:
+    """A closed or open room of the artist kind, drawn from ``rng``; room_interior.py's bright interiors give
+    their own ``wall_base(rng, wall)`` (the walls' base colours), ``open_style`` ("windows": no missing wall)
+    and ``tex_wall`` (the walls' texture probability)."""
     W, D, H = rng.uniform(3.5, 8.0), rng.uniform(3.5, 8.0), rng.uniform(2.5, 4.0)
     walls = {}
     for w in WALLS:
-        tex_p = P_TEX_FLOOR if w == "floor" else P_TEX_WALL
+        tex_p = P_TEX_FLOOR if w == "floor" else tex_wall
         m = material(rng, "dielectric", tex_p)
-        m["base"] = colour(rng, 0.6, 0.2, 0.85)
+        m["base"] = wall_base(rng, w)
         if w == "floor" and rng.random() < 0.45:  # a glossy floor
             m["roughness"], m["specular"] = _r(rng.uniform(0.03, 0.3)), _r(rng.uniform(0.4, 1.0))
         walls[w] = dict(material=m, window=None)
     missing = []
     if kind == "open":
-        style = rng.choice(("missing", "windows", "both"))
+        style = open_style or rng.choice(("missing", "windows", "both"))
         sides = rng.sample(SIDES, 2)
         if style in ("missing", "both"):
             missing = sides[:1] if (style == "both" or rng.random() < 0.6) else sides
@@ -270,7 +282,7 @@ def artist_params(seed: int) -> dict:
             li["energy"] = _r(li["energy"] * 0.5)
     target = _centre(objects, H)
     camera = _room_camera(rng, W, D, H, objects + emitters, target, [li["location"] for li in lights])
-    return dict(seed=int(seed), mode="artist", kind=kind, lighting=lighting, size=(W, D, H), walls=walls,
+    return dict(seed=int(seed), mode=mode, kind=kind, lighting=lighting, size=(W, D, H), walls=walls,
                 missing=missing, world=world, sun=sun, objects=objects, emitters=emitters, lights=lights,
                 camera=camera)
 

@@ -87,10 +87,10 @@ def register_cli(sub) -> None:
                    help="number of random rooms (default %(default)s)")
     p.add_argument("--seed", type=int, default=D.seed,
                    help="seed of the first room; room i uses seed+i (default %(default)s)")
-    p.add_argument("--mode", choices=("diffuse", "artist", "studio"), default=D.mode,
+    p.add_argument("--mode", choices=("diffuse", "artist", "studio", "interior"), default=D.mode,
                    help="random rooms: 'diffuse' (diffuse primitives and lamps, the seed's) or 'artist' (Principled, "
                         "metal, glass, textures, emitters, sky and sun, exteriors) or 'studio' (a cyclorama in a dark "
-                        "stage, softboxes; docs/artist_rooms.md) "
+                        "stage, softboxes) or 'interior' (bright plaster rooms; docs/artist_rooms.md) "
                         "(default %(default)s)")
     p.add_argument("--size", type=cliargs.parse_size, default=cliargs.Size(*D.size), metavar="WxH",
                    help="image size (default %(default)s)")

@@ -20,9 +20,10 @@ def register_cli(sub) -> None:
     p = sub.add_parser("randomize", help="build a random room scene from a seed",
                        description="Build a random room (box, primitives, lights, camera) from --seed.")
     p.add_argument("--seed", type=int, default=RandomizeConfig.seed, help="room seed (default %(default)s)")
-    p.add_argument("--mode", choices=("diffuse", "artist", "studio"), default=RandomizeConfig.mode,
+    p.add_argument("--mode", choices=("diffuse", "artist", "studio", "interior"), default=RandomizeConfig.mode,
                    help="diffuse: box of diffuse primitives and lamps; artist: glossy, metal, glass, textured "
-                        "materials, emitters, skies, open rooms and exteriors; studio: cycloramas lit by softboxes "
+                        "materials, emitters, skies, open rooms and exteriors; studio: cycloramas lit by softboxes; "
+                        "interior: bright plaster rooms "
                         "(docs/artist_rooms.md) "
                         "(default %(default)s)")
     p.add_argument("--save", metavar="FILE.blend", help="save the scene to this .blend file")
