@@ -447,7 +447,8 @@ class Trainer:
                          loss=float(np.mean(losses)) if losses else math.nan, lr=self._lr(self._progress(self.epoch)),
                          skipped=self.skipped, partial=partial, **ev)
             self.history.append(entry)
-            improved = not self.best or ev["val_psnr"] > self.best["val_psnr"]
+            # the best by val_score: the mean of the folders' PSNRs (validation.evaluate; one folder: val_psnr)
+            improved = not self.best or ev["val_score"] > self.best.get("val_score", self.best["val_psnr"])
             if improved:
                 self.best = dict(entry)
                 since_best = 0
@@ -459,6 +460,8 @@ class Trainer:
                               "--resume (any process count).")
             self.log(f"epoch {self.epoch}: loss {entry['loss']:.5f}  val PSNR {ev['val_psnr']:.2f} dB "
                      f"(tm {ev['val_tm_psnr']:.2f}, SSIM {ev['val_ssim']:.3f})  {self.elapsed / 60:.2f} min"
+                     + ("  folders " + ", ".join(f"{t} {v:.2f}" for t, v in ev["val_folders"].items())
+                        + f" (mean {ev['val_score']:.2f})" if "val_folders" in ev else "")
                      + ("  *best" if improved else ""))
             cb(self._state("epoch", self._progress(self.epoch), entry["loss"]))
         self.dist.close()

@@ -19,8 +19,13 @@ def geometry(s: data.Sample) -> torch.Tensor:
 def evaluate(net, samples, with_ssim: bool = True) -> dict:
     """Validation metrics over the geometry pixels of whole images (data.Sample.mask): PSNR by the seed's
     convention and after the tonemap, pooled over all those pixels of all images; log-space MSE (the loss);
-    mean SSIM of the image with the reference composited where nothing was hit (as the node shows it)."""
+    mean SSIM of the image with the reference composited where nothing was hit (as the node shows it).
+    Samples of several dataset folders (keys ``<tag>/<key>``, data.FolderSet) are also scored per folder
+    (``val_folders``: tag -> pooled PSNR), and ``val_score``, what training keeps its best checkpoint by, is the
+    mean of those: a folder of 40 rooms counts as much as one of 500 (pooled, the big folder decides alone).
+    With one folder ``val_score`` is ``val_psnr``."""
     p, tp = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True)
+    per: dict[str, metrics.PooledPSNR] = {}
     ss, sq, n = [], 0.0, 0
     net.eval()
     dev = next(net.parameters(), torch.empty(0)).device  # a network on a GPU is scored there, the metrics on the CPU
@@ -34,8 +39,13 @@ def evaluate(net, samples, with_ssim: bool = True) -> dict:
             r = metrics.score(pred, s.y.permute(1, 2, 0).numpy(), m.numpy(), with_ssim=with_ssim, with_flip=False)
             p.add_score(r)
             tp.add_score(r)
+            per.setdefault(s.key.split("/", 1)[0] if "/" in s.key else "", metrics.PooledPSNR()).add_score(r)
             if with_ssim:
                 ss.append(r["ssim"])
     net.train()
-    return dict(val_psnr=p.value, val_tm_psnr=tp.value, val_ssim=float(np.mean(ss)) if ss else math.nan,
-                val_loss=sq / max(n, 1))
+    out = dict(val_psnr=p.value, val_tm_psnr=tp.value, val_ssim=float(np.mean(ss)) if ss else math.nan,
+               val_loss=sq / max(n, 1), val_score=p.value)
+    if len(per) > 1:
+        out["val_folders"] = {t: v.value for t, v in sorted(per.items())}
+        out["val_score"] = float(np.mean(list(out["val_folders"].values())))
+    return out

@@ -59,3 +59,38 @@ def test_bad_folder_lists_are_refused_with_the_folder_named(tmp_path):
     assert data.load_folders([a, c], "albedo,normal,depth,direct").target == "ref"
     with pytest.raises(UserError, match=r"x/d/manifest.json: this dataset was baked without the group\(s\) ref_diffuse"):
         data.load_folders([a, c], "albedo,normal,depth,direct", target="ref_diffuse")
+
+
+def test_validation_scores_each_folder_and_keeps_the_best_by_their_mean(tmp_path):
+    import math
+
+    import numpy as np
+    import torch
+
+    from ssgi.model.learn import network, validation
+
+    a = synthetic.make_dataset(tmp_path / "big", scenes=6, per_scene=1, w=24, h=16, seed=1, emission=True)
+    b = synthetic.make_dataset(tmp_path / "small", scenes=2, per_scene=1, w=24, h=16, seed=2, emission=True)
+    spec = "albedo,normal,depth,direct,emission"
+    fs = data.load_folders([str(a), str(b)], spec)
+    torch.manual_seed(0)
+    net = network.build(network.arch_for("unet_s", spec))
+    ev = validation.evaluate(net, fs.samples, with_ssim=False)
+    # each folder's own pooled PSNR, as scoring that folder alone gives; the score is their plain mean
+    for tag in ("big", "small"):
+        alone = validation.evaluate(net, [s for s in fs.samples if s.key.startswith(tag + "/")], with_ssim=False)
+        assert math.isclose(ev["val_folders"][tag], alone["val_psnr"], rel_tol=1e-9)
+        assert "val_folders" not in alone and alone["val_score"] == alone["val_psnr"]
+    assert math.isclose(ev["val_score"], np.mean(list(ev["val_folders"].values())), rel_tol=1e-12)
+    # pooled, the big folder weighs 3x: the pooled PSNR lies nearer its score than the mean does
+    big, small = ev["val_folders"]["big"], ev["val_folders"]["small"]
+    assert abs(ev["val_psnr"] - big) < abs(ev["val_score"] - big) or math.isclose(big, small, abs_tol=1e-6)
+
+    out = tmp_path / "m.pt"
+    from ssgi.model.learn.train import TrainConfig, Trainer
+    Trainer(TrainConfig(data=[str(a), str(b)], out=str(out), variant="unet_s", inputs=spec, epochs=2, crop=16,
+                        batch=2, crops_per_image=1, command="test")).run()
+    ck = checkpoint.load(checkpoint.last_path(out))
+    hist = ck["history"]
+    assert all("val_folders" in h and set(h["val_folders"]) == {"big", "small"} for h in hist)
+    assert ck["best"]["val_score"] == max(h["val_score"] for h in hist)
