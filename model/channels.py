@@ -38,6 +38,10 @@ class Group:
         return len(self.components)
 
 
+# the surround group's 12 components: per camera-space direction bin, open share then nearness
+SURROUND_BINS: tuple[str, ...] = ("R", "L", "U", "D", "F", "B")
+SURROUND_COMPONENTS: tuple[str, ...] = tuple(b + k for b in SURROUND_BINS for k in ("O", "N"))
+
 GROUPS: dict[str, Group] = {g.name: g for g in (
     Group("albedo", ("R", "G", "B"), "color", "eevee", "use_pass_diffuse_color", "reflectance",
           "EEVEE Diffuse Color pass.", render_pass="Diffuse Color", preview="color", drop_rank=7),
@@ -74,6 +78,14 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "(ssgi_addon/blender/direct_light.py render_emitter_direct; zeros without a render in a scene with no "
           "emitter). Measured 34.8-42.2 dB against converged Cycles on panel-lit rooms (docs/direct_light.md).",
           render_pass="Diffuse Direct", drop_rank=0),
+    Group("surround", SURROUND_COMPONENTS, "unit", "bpy", None, "[0,1]",
+          "What lies around the camera, on screen or not: rays cast from the camera in 256 fixed directions (camera "
+          "space), binned by the nearest camera axis (R(ight) L(eft) U(p) D(own) F(ront, the view direction) "
+          "B(ack)); per bin the share of rays that hit nothing within the clip end (...O, open) and the mean of "
+          "m / (d + m) over the rays (...N, near; 0 for a miss), d the hit distance and m the median of all hit "
+          "distances (scale free, as depth). Constant over the image. Tells a closed room (walls all round, "
+          "behind the camera too) from an open stage or a sky (ssgi_addon/blender/surround.py; issue 14).",
+          render_pass=None, preview="grey", drop_rank=1),
     Group("rest", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
           "What EEVEE renders well itself: EEVEE's Combined image of the scene at its own settings minus EEVEE's "
           "diffuse part (Diffuse Color x Diffuse Light): emission, the world seen directly, glossy and metal "
@@ -114,12 +126,13 @@ STAT_GROUPS: tuple[str, ...] = ("scene", "glow")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "rest", "eevee", "ref_diffuse", "ref")
+                                  "emit_direct", "surround", "rest", "eevee", "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
-OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "rest", "ref_diffuse")
+OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "rest",
+                                    "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                 "emit_direct", "lit", "scene", "glow")
+                                 "emit_direct", "surround", "lit", "scene", "glow")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 TARGETS: tuple[str, ...] = ("ref", "ref_diffuse")

@@ -13,7 +13,7 @@ Normalisation (``to_inputs``), per group kind (``channels.Group.kind``):
     scene  (derived)         whole-image statistics (mean log1p(lit), mean albedo, geometry fraction), as is
     color  (albedo)          as is, in [0, 1]
     normal (camera space)    as is, in [-1, 1]
-    unit   (ao)              as is, in [0, 1]
+    unit   (ao, surround)    as is, in [0, 1]
     light  (direct, lit)     log1p(x): compressive, 0 -> 0, 1e5 -> 11.5
     depth                    z / (z + m), m = median depth of the geometry pixels of THIS image: scale free
                              (the same for z and 1000 z), in [0, 1); background -> 1.
@@ -21,7 +21,8 @@ Geometry pixels for depth are those with a finite depth in (0, DEPTH_BACKGROUND)
 normal group is given, a normal of length > 0.5 (nothing-hit pixels have a zero normal). Pixels that are
 not geometry are background; an image without geometry is all background (1).
 
-Flip augmentation (``flip_x``) mirrors the image left-right and negates the normal's x component.
+Flip augmentation (``flip_x``) mirrors the image left-right, negates the normal's x component and swaps the
+surround group's right and left bins (what was on the camera's right is on its left in the mirror).
 """
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ DESCRIPTION = {
     "light": "log1p(x)",
     "depth": "z/(z+median geometry depth of the image); background (no geometry, z<=0, z>=1e9, non-finite) -> 1",
     "color": "as is", "normal": "as is (camera space)", "unit": "as is",
-    "flip": "mirror x and negate normal.x",
+    "flip": "mirror x, negate normal.x, swap the surround group's right and left bins",
 }
 
 
@@ -175,18 +176,36 @@ def target(groups: dict[str, np.ndarray], group: str = ch.TARGET_GROUP) -> np.nd
     return np.asarray(groups[group], dtype=np.float32)[..., :3]
 
 
-def flip_x(x, spec: tuple[str, ...], axis: int = -1):
-    """Mirror an input tensor left-right and negate normal.x. ``x`` is numpy HxWxC (axis=-1 channel last)
-    or torch NxCxHxW (pass axis=1 for channel axis). Width is the axis after H."""
+def _mirror_channels(spec: tuple[str, ...]) -> list[int]:
+    """The channel order of the mirrored input: the surround group's right (R*) and left (L*) bins swap."""
     lay = layout(spec)
+    order = list(range(ch.input_channels(spec)))
+    if "surround" in lay:
+        i0, comps = lay["surround"].start, ch.SURROUND_COMPONENTS
+        for k, c in enumerate(comps):
+            if c[0] in "RL":
+                order[i0 + k] = i0 + comps.index({"R": "L", "L": "R"}[c[0]] + c[1:])
+    return order
+
+
+def flip_x(x, spec: tuple[str, ...], axis: int = -1):
+    """Mirror an input tensor left-right, negate normal.x and swap the surround group's right and left bins.
+    ``x`` is numpy HxWxC (axis=-1 channel last) or torch NxCxHxW (pass axis=1 for channel axis). Width is the
+    axis after H."""
+    lay = layout(spec)
+    order = _mirror_channels(spec) if "surround" in lay else None
     if isinstance(x, np.ndarray):
         assert axis == -1
         y = x[:, ::-1].copy()
+        if order is not None:
+            y = y[..., order]
         if "normal" in lay:
             y[..., lay["normal"].start] *= -1
         return y
     import torch
     y = torch.flip(x, dims=[-1])
+    if order is not None:
+        y = y[:, order]
     if "normal" in lay:
         i = lay["normal"].start
         y = y.clone()

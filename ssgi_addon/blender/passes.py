@@ -415,9 +415,9 @@ def render_rest(scene, samples: int | None = None, groups=()):
 WORLD_SAMPLES = 1
 # groups rendered by a render of their own (direct_light.py: soft direct light; the emitters' direct light, a
 # Cycles render), in this order
-OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct")
+OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct", "surround")  # surround: ray casts, no render
 # every input group a render of the scene gives (emit_direct is Cycles', the rest EEVEE's)
-INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct",)
+INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround")
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
@@ -462,6 +462,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
             out["direct_soft"] = timed("direct_soft", direct_light.render_soft_direct, scene)
         if "emit_direct" in groups:
             out["emit_direct"] = timed("emit_direct", direct_light.emitter_direct, scene)
+        if "surround" in groups:
+            from .surround import render_surround
+            out["surround"] = timed("surround", render_surround, scene)
         if raster:
             configure_gbuffer(scene, raster, samples=raster_samples or samples)
             with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):

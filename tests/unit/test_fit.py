@@ -84,9 +84,11 @@ def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, o
 
 def test_droppable_respects_the_head():
     assert ablation.droppable(ch.INPUT_GROUPS, "residual") == ["direct_soft", "emit_direct", "world", "emission",
-                                                                "glow", "scene", "ao", "depth", "normal", "lit"]
+                                                                "glow", "scene", "surround", "ao", "depth", "normal",
+                                                                "lit"]
     assert ablation.droppable(ch.INPUT_GROUPS, "demod") == ["direct_soft", "emit_direct", "world", "emission", "glow",
-                                                             "scene", "ao", "depth", "normal", "lit", "direct"]
+                                                             "scene", "surround", "ao", "depth", "normal", "lit",
+                                                             "direct"]
     assert ablation.droppable(("albedo", "direct"), "residual") == []
 
 

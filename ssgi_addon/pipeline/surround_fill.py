@@ -1,0 +1,118 @@
+"""Add the ``surround`` group (ssgi_addon/blender/surround.py) to a dataset folder baked before it existed.
+
+    summary = add_surround("/work/data/artist1")      # scripts/add_surround.py DIR [DIR ...]
+
+The group is geometry seen from the camera, no render: each sample's scene is rebuilt (a random room from its
+seed and the folder's room mode; a ``bake --scenes`` sample from its .blend, camera and frame), probed, and the
+sample rewritten with the group added (atomically, the other channels as they were: half stays half), then the
+manifest lists the group. A sample that has it already is skipped, so a killed run resumes. Before writing, the
+rebuilt scene is checked against the sample: a ray straight ahead must hit at the stored depth of the centre
+pixel (within 2 %), else the sample is reported and left as it was (the scene is not the one baked).
+Folders being baked must not be filled (the baker rewrites the manifest): stop the bake, ``cli.py merge``, fill.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...model import channels as ch
+from ...model.dataset import exrio, folder as ds
+from ...model.errors import UserError
+
+
+def _centre_check(scene, depth: np.ndarray) -> str | None:
+    from mathutils import Vector
+
+    from ..blender.surround import _depsgraph
+    h, w = depth.shape[:2]
+    z = float(depth[h // 2, w // 2, 0]) if depth.ndim == 3 else float(depth[h // 2, w // 2])
+    cam = scene.camera
+    if not (0 < z < 0.99 * cam.data.clip_end):
+        return None  # nothing hit there: no check
+    dg = _depsgraph(scene)
+    mw = cam.evaluated_get(dg).matrix_world
+    # the centre of an even-sized image lies between pixels: aim at the pixel centre's ray (tiny offset)
+    d = mw.to_quaternion().to_matrix() @ Vector((0.0, 0.0, -1.0))
+    hit, loc, *_ = scene.ray_cast(dg, mw.to_translation(), d, distance=cam.data.clip_end)
+    if not hit:
+        return f"a ray straight ahead hits nothing, the stored centre depth is {z:.3f}"
+    got = (loc - mw.to_translation()).length
+    if abs(got - z) > 0.02 * z + 1e-3 and not _near_edge(depth):
+        return f"a ray straight ahead hits at {got:.3f}, the stored centre depth is {z:.3f}"
+    return None
+
+
+def _near_edge(depth: np.ndarray) -> bool:
+    """The centre pixel sits on a depth edge (the exact centre ray may fall on either side)."""
+    z = depth[..., 0] if depth.ndim == 3 else depth
+    h, w = z.shape
+    win = z[h // 2 - 1:h // 2 + 2, w // 2 - 1:w // 2 + 2]
+    return float(win.max() / max(win.min(), 1e-6)) > 1.05
+
+
+def add_surround(folder, log=print) -> dict:
+    import bpy
+
+    from ..blender import room, surround
+    from ..blender.blendfile import open_blend
+
+    folder = Path(folder)
+    man_path = folder / ds.MANIFEST
+    if not man_path.is_file():
+        raise UserError(f"{folder}: no {ds.MANIFEST} (run `cli.py merge {folder}` after a sharded bake)")
+    manifest = ds.read_manifest(man_path)
+    if any(folder.glob("manifest.shard-*.json")):
+        # shard manifests hold samples the merged manifest may not list yet: they would be left unfilled
+        listed = set(manifest["samples"])
+        extra = sorted({k for p in folder.glob("manifest.shard-*.json")
+                        for k in ds.read_manifest(p)["samples"]} - listed)
+        if extra:
+            raise UserError(f"{folder}: {len(extra)} sample(s) of the shard manifests are not in {ds.MANIFEST} "
+                            f"(first {extra[0]}): run `cli.py merge {folder}` first")
+    settings = manifest["settings"]
+    kind, mode = settings.get("kind", "rooms"), settings.get("room_mode", "diffuse")
+    done = skipped = 0
+    bad: dict[str, str] = {}
+    blend_open = None
+    if kind != "scenes":  # the rooms are built into an empty scene, as the baker builds them
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    for key in sorted(manifest["samples"]):
+        meta = manifest["samples"][key]
+        path = ds.sample_path(folder, key)
+        planes, header = exrio.read_exr(path)
+        if all(c in planes for c in ch.GROUPS["surround"].channels):
+            skipped += 1
+            continue
+        if kind == "scenes":
+            if meta["blend"] != blend_open:
+                open_blend(meta["blend"])
+                blend_open = meta["blend"]
+            scene = bpy.data.scenes[meta["scene"]] if meta.get("scene") in bpy.data.scenes else bpy.context.scene
+            if meta.get("camera") in bpy.data.objects:
+                scene.camera = bpy.data.objects[meta["camera"]]
+        else:
+            room.build_room(int(meta["seed"]), scene, mode=mode)
+        scene.frame_set(int(meta.get("frame", scene.frame_current)))
+        depth = np.stack([planes[c] for c in ch.GROUPS["depth"].channels], axis=-1)
+        why = _centre_check(scene, depth)
+        if why:
+            bad[key] = why
+            log(f"{path}: not filled: {why}")
+            continue
+        vals = surround.probe(scene)
+        h, w = depth.shape[:2]
+        for i, c in enumerate(ch.GROUPS["surround"].channels):
+            planes[c] = np.full((h, w), vals[i], np.float32)
+        hdr = {k: v for k, v in header.items() if str(k).startswith("ssgi")}
+        exrio.write_exr(path, planes, half=bool(settings.get("half", True)), header=hdr)
+        done += 1
+        if done % 50 == 0:
+            log(f"{folder.name}: {done} filled")
+    if not bad:
+        groups = ds.stored_groups(manifest) + ("surround",)
+        manifest["channel_spec"] = ch.describe(tuple(dict.fromkeys(groups)))
+        ds.write_manifest(folder, manifest)
+    return dict(folder=str(folder), filled=done, had_it=skipped, not_filled=bad,
+                manifest_lists_it=not bad)
