@@ -122,6 +122,8 @@ def test_add_surround_fills_an_old_folder_as_the_baker_writes_it(tmp_path):
 
 
 def test_features_stay_finite_for_a_camera_on_a_surface_and_with_nothing_around():
+    import bpy  # noqa: F401  (mathutils comes with it)
+
     from ssgi.ssgi_addon.blender import surround
     dirs = surround.directions()
     assert np.bincount(surround.bins(dirs), minlength=6).min() >= 40  # every bin holds rays
