@@ -103,9 +103,10 @@ def verdict(final, gen, size, gain_db: float) -> str:
 
 # ------------------------------------------------------------------------------ a shot's withheld frames
 
-WITHHELD_METHODS = ("fitted", "generic", "cycles_1spp_oidn")
+WITHHELD_METHODS = ("fitted", "generic", "cycles_1spp_oidn", "oracle_diffuse")
 WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "generic": "generic model (SSGI node)",
-                   "cycles_1spp_oidn": "Cycles 1 spp + OIDN"}
+                   "cycles_1spp_oidn": "Cycles 1 spp + OIDN",
+                   "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest"}
 SHOT_BAR_DB = 35.0  # issue 16: the fitted model on withheld frames
 
 

@@ -14,7 +14,8 @@ from ``views.N_WITHHELD`` withheld frames (ssgi_addon/blender/views.py), and aft
 ``render_withheld`` renders those frames as the node does (``RenderSession`` with the fitted model, at the
 views' size and the file's EEVEE samples; the generic model on the same passes through the same working-
 resolution predictor and compose), Cycles 1 spp + OIDN, and the reference (Cycles ``ref_samples`` spp + OIDN,
-another seed); ``fit_report.score_withheld`` scores them into the report's ``withheld`` section, whose verdict
+another seed), and the reference's own diffuse part + EEVEE's rest (the ceiling of a diffuse-part model);
+``fit_report.score_withheld`` scores them into the report's ``withheld`` section, whose verdict
 becomes the fit's. Scoring is not part of the fit (the model is written before it): ``minutes`` budgets the bake
 and the training; the summary's ``withheld_minutes`` says what the scoring took.
 
@@ -205,7 +206,9 @@ WITHHELD_HOW = ("The fitted model through RenderSession (the SSGI node's render 
 def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, out_dir=None, log=None) -> list[dict]:
     """Render a shot's withheld frames (``plan["test_frames"]``, camera ``plan["test_camera"]``) at ``size``
     (w, h): the SSGI node's image with ``model`` (RenderSession) and with ``generic`` (same passes), Cycles
-    1 spp + OIDN, and the reference (Cycles ``ref_samples`` spp + OIDN, another seed). Returns
+    1 spp + OIDN, the reference (Cycles ``ref_samples`` spp + OIDN, another seed) and, for a diffuse-part
+    model, that reference's diffuse part composed with EEVEE's rest as the node composes (``oracle_diffuse``:
+    what a perfect diffuse prediction would score; the rest's error no fit can remove). Returns
     [{frame, ref, mask, images, seconds}] for ``fit_report.score_withheld``; with ``out_dir``, a PNG sheet a
     frame (reference | fitted | generic | Cycles 1 spp + OIDN)."""
     import numpy as np
@@ -249,7 +252,11 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
             t = time.perf_counter()
             imgs["cycles_1spp_oidn"] = passes.render_cycles(scene, 1, seed=f, denoise=True)["ref"]
             secs["cycles_1spp_oidn"] = time.perf_counter() - t
-            ref = passes.render_cycles(scene, int(ref_samples), seed=100003 + f, denoise=True)["ref"]
+            refs = passes.render_cycles(scene, int(ref_samples), seed=100003 + f, denoise=True,
+                                        groups=("ref", "ref_diffuse"))
+        ref = refs["ref"]
+        if session.target == ch.DIFFUSE_TARGET:  # the ceiling of any diffuse-part model: EEVEE's rest is kept
+            imgs["oracle_diffuse"] = compose(refs["ref_diffuse"], g, scene.camera.data.clip_end, ch.DIFFUSE_TARGET)
         out.append(dict(frame=f, ref=ref, mask=images.geometry_mask(g["depth"], g["normal"]), images=imgs,
                         seconds=secs))
         log(f"fit: withheld frame {f}: " + ", ".join(f"{k} {v:.1f} s" for k, v in secs.items()))
