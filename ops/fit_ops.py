@@ -8,6 +8,7 @@ from pathlib import Path
 import bpy
 
 from ..model.errors import UserError
+from ..ssgi_addon.blender.views import check_shot
 from ..ssgi_addon.paths import scene_path
 from ..ssgi_addon.runtime import ui_jobs
 from . import StartsJob
@@ -30,6 +31,18 @@ def fit_out(scene) -> Path:
     return out
 
 
+def fit_frames(scene) -> tuple[int, int] | None:
+    """The shot the panel asks for: (start, end), 0 meaning the scene's own; None when "Fit the Shot" is off.
+    The range is judged as ``cli.py fit --frames`` judges it (a one-line error, nothing started)."""
+    s = scene.ssgi
+    if not s.fit_shot:
+        return None
+    a = int(s.fit_frame_start) or scene.frame_start
+    b = int(s.fit_frame_end) or scene.frame_end
+    check_shot(a, b, scene)
+    return a, b
+
+
 class SSGI_OT_fit_scene(StartsJob, bpy.types.Operator):
     """Fit a small model to this scene in the background: bake views of its cameras (plus jittered ones), try
     network sizes smallest first, drop the input passes the scene does not need, and report. Blender stays usable"""
@@ -43,14 +56,17 @@ class SSGI_OT_fit_scene(StartsJob, bpy.types.Operator):
         if not any(o.type == "CAMERA" for o in scene.objects):
             raise UserError(f"scene {scene.name!r} has no camera: add the camera(s) you render with")
         out = fit_out(scene)
+        frames = fit_frames(scene)
         work = out.with_name(out.stem + ".fit")
         work.mkdir(exist_ok=True)
         copy = work / "source.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True)
         s = scene.ssgi
         ui_jobs.fit(scene, str(copy), str(out), views=int(s.fit_views), minutes=float(s.fit_minutes),
-                    target_psnr=float(s.fit_target_psnr) or None).start()
-        return f"Fitting to scene {scene.name!r} for {s.fit_minutes:g} min -> {out}"
+                    target_psnr=float(s.fit_target_psnr) or None,
+                    extra_args=("--frames", f"{frames[0]}-{frames[1]}") if frames else ()).start()
+        shot = f" (shot {frames[0]}-{frames[1]})" if frames else ""
+        return f"Fitting to scene {scene.name!r}{shot} for {s.fit_minutes:g} min -> {out}"
 
 
 CLASSES = (SSGI_OT_fit_scene,)

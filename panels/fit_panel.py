@@ -22,6 +22,11 @@ class SSGI_PT_fit(JobPanel, bpy.types.Panel):
         row.prop(s, "fit_views")
         row.prop(s, "fit_minutes")
         col.prop(s, "fit_target_psnr")
+        col.prop(s, "fit_shot")
+        if s.fit_shot:
+            row = col.row()
+            row.prop(s, "fit_frame_start")
+            row.prop(s, "fit_frame_end")
 
     def draw_result(self, layout, result):
         layout.label(text=f"Inputs: {', '.join(result.get('inputs') or [])}", icon="CHECKMARK")

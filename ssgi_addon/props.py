@@ -52,6 +52,14 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                      description="About how many views of the scene to bake (some are held out)")
     fit_minutes: bpy.props.FloatProperty(name="Minutes", default=_Fit.minutes, min=0.1, soft_max=240.0,
                                          description="The whole time budget of the fit, bake included")
+    fit_shot: bpy.props.BoolProperty(name="Fit the Shot", default=False,
+                                     description="Fit frames Start..End as one shot: 5 whole frames spread over it are "
+                                                 "withheld (nothing baked within a frame of them) and scored after the "
+                                                 "fit as the node renders them, beside the shipped model and Cycles 1 spp + OIDN")
+    fit_frame_start: bpy.props.IntProperty(name="Start", default=0, min=0,
+                                           description="First frame of the shot; 0: the scene's frame start")
+    fit_frame_end: bpy.props.IntProperty(name="End", default=0, min=0,
+                                         description="Last frame of the shot; 0: the scene's frame end")
     fit_target_psnr: bpy.props.FloatProperty(name="Target PSNR", default=0.0, min=0.0, soft_max=60.0,
                                              description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
     # Dataset panel (ops/bake_ops.py): Randomize Room and Bake Dataset (defaults as cli.py randomize / bake)

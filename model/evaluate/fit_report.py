@@ -101,6 +101,69 @@ def verdict(final, gen, size, gain_db: float) -> str:
     return f"the scene does not gain enough ({' and '.join(why)}): " + s
 
 
+# ------------------------------------------------------------------------------ a shot's withheld frames
+
+WITHHELD_METHODS = ("fitted", "generic", "cycles_1spp_oidn", "oracle_diffuse")
+WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "generic": "generic model (SSGI node)",
+                   "cycles_1spp_oidn": "Cycles 1 spp + OIDN",
+                   "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest"}
+SHOT_BAR_DB = 35.0  # issue 16: the fitted model on withheld frames
+
+
+def score_withheld(frames: list[dict]) -> dict:
+    """Scores of a shot's withheld frames. ``frames``: [{frame, ref (HxWx3), mask (HxW bool, the geometry
+    pixels), images: {method: HxWx3}, seconds: {method: s}}], every image the whole frame (the node's image:
+    prediction composed with EEVEE's own rest). PSNR and tonemapped PSNR pooled over the geometry pixels of
+    all frames, SSIM their mean, each frame's PSNR, and the mean seconds a frame."""
+    out: dict = {"frames": [int(f["frame"]) for f in frames], "methods": {}}
+    names = [m for m in WITHHELD_METHODS if all(m in f["images"] for f in frames)] + sorted(
+        {m for f in frames for m in f["images"]} - set(WITHHELD_METHODS))
+    for m in names:
+        p, tp, ss, per, secs = metrics.PooledPSNR(), metrics.PooledPSNR(tonemapped=True), [], {}, []
+        for f in frames:
+            if m not in f["images"]:
+                continue
+            r = metrics.score(f["images"][m], f["ref"], f["mask"], with_flip=False)
+            p.add_score(r)
+            tp.add_score(r)
+            ss.append(r["ssim"])
+            per[str(int(f["frame"]))] = number(r["psnr"])
+            if f.get("seconds", {}).get(m) is not None:
+                secs.append(float(f["seconds"][m]))
+        out["methods"][m] = dict(psnr=number(p.value), tm_psnr=number(tp.value), ssim=number(float(np.mean(ss))),
+                                 per_frame=per, seconds=number(float(np.mean(secs))) if secs else None)
+    return out
+
+
+def withheld_verdict(w: dict, bar_db: float = SHOT_BAR_DB) -> str:
+    """One sentence on the withheld frames: the fitted model against the bar, the generic model and Cycles
+    1 spp + OIDN."""
+    ms = w["methods"]
+    f = ms["fitted"]["psnr"]
+    parts = [f"withheld frames {', '.join(map(str, w['frames']))} as the node renders them: fitted {f:.2f} dB"]
+    for m in ("generic", "cycles_1spp_oidn"):
+        if m in ms:
+            parts.append(f"{WITHHELD_LABELS[m].split(' (')[0]} {ms[m]['psnr']:.2f} dB")
+    ok = f >= bar_db and ("cycles_1spp_oidn" not in ms or f >= ms["cycles_1spp_oidn"]["psnr"])
+    return ("the shot is fitted: " if ok else f"the shot is not fitted (below {bar_db:g} dB or Cycles 1 spp + OIDN): ") \
+        + ", ".join(parts)
+
+
+def withheld_markdown(w: dict) -> list[str]:
+    L = ["", "## Withheld frames (never baked, nor any view within "
+         f"{w.get('gap', 1)} frame of them)", "",
+         f"Frames {', '.join(map(str, w['frames']))} of the shot {w['shot'][0]}-{w['shot'][1]}, camera "
+         f"{w.get('camera')!r}, at {w['size'][0]}x{w['size'][1]}, against Cycles {w['ref_samples']} spp + OIDN "
+         f"(another seed). {w.get('how', '')}", "",
+         "| method | PSNR | PSNR (tonemapped) | SSIM | seconds a frame here | " +
+         " | ".join(f"frame {f}" for f in w["frames"]) + " |",
+         "|---|---:|---:|---:|---:|" + "---:|" * len(w["frames"])]
+    for m, r in w["methods"].items():
+        L.append(f"| {WITHHELD_LABELS.get(m, m)} | {_n(r['psnr'])} | {_n(r['tm_psnr'])} | {_n(r['ssim'], '{:.3f}')} | "
+                 f"{_n(r.get('seconds'))} | " + " | ".join(_n(r["per_frame"].get(str(f))) for f in w["frames"]) + " |")
+    return L
+
+
 def plain(x):
     """``x`` as plain data for checkpoints and JSON (numbers as ``number``; the key ``net`` left out)."""
     if isinstance(x, dict):
@@ -160,6 +223,8 @@ def report_markdown(rep: dict, model) -> str:
         p = rep["polish"]
         L += ["", f"Polish (the kept network, kept inputs, the rest of the budget): val {_n(p['before'])} -> "
               f"{_n(p['after'])} dB in {_n(p['seconds'], '{:.0f}')} s of training."]
+    if rep.get("withheld"):
+        L += withheld_markdown(rep["withheld"])
     L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]
     return "\n".join(L)
 

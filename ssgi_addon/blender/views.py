@@ -13,6 +13,12 @@ shots the artist renders.
 
     plan = make_views(scene, views=24, seed=0)        # jittered cameras added to the OPEN file (a copy of it)
     train, val, test = split_views(data_dir, plan)   # held-out views by camera, once baked
+
+A shot (``frames=(A, B)``, issue 16): ``N_WITHHELD`` whole frames spread over A..B are withheld for the test
+(``plan["test_frames"]``: the scene camera there, as the node renders it, is scored after the fit; nothing
+at those frames is baked), and every baked frame (``plan["frames"]``, the scene cameras plus jittered ones
+near them) lies more than ``GAP`` frames from each withheld frame. The jittered cameras are then train or
+val (held out whole, to choose); there are no test cameras.
 """
 from __future__ import annotations
 
@@ -27,6 +33,9 @@ from ...model.errors import UserError
 JITTER_FRACTION = 0.04  # of the mesh bounds' diagonal
 JITTER_DEG = 8.0
 VIEW_PREFIX = "ssgi.fit.view_"
+N_WITHHELD = 5  # whole frames of a shot withheld for the test
+GAP = 1  # no baked view within this many frames of a withheld frame
+MIN_SHOT_FRAMES = 4 * N_WITHHELD  # a withheld frame, its two neighbours and a baked frame, N_WITHHELD times
 
 
 def view_counts(views: int, n_frames_available: int, n_cameras: int) -> tuple[int, int]:
@@ -80,9 +89,61 @@ def _free_offset(scene, depsgraph, origin, offset):
     return offset
 
 
-def make_views(scene, views: int = 24, seed: int = 0) -> dict:
+def withheld_frames(a: int, b: int, n: int = N_WITHHELD) -> list[int]:
+    """``n`` frames spread over the shot a..b, at the middles of ``n`` equal parts (none at the ends)."""
+    check_shot(a, b)
+    return sorted({a + int(math.floor((i + 0.5) * (b - a) / n + 0.5)) for i in range(n)})
+
+
+def eligible_frames(a: int, b: int, withheld) -> list[int]:
+    """The frames of a..b more than ``GAP`` frames from every withheld frame: those the fit may bake."""
+    return [f for f in range(a, b + 1) if all(abs(f - w) > GAP for w in withheld)]
+
+
+def spread(frames: list[int], n: int) -> list[int]:
+    """``n`` of ``frames`` (sorted) spread evenly by index, both ends included."""
+    if n >= len(frames):
+        return list(frames)
+    if n <= 1:
+        return [frames[len(frames) // 2]]
+    return sorted({frames[round(i * (len(frames) - 1) / (n - 1))] for i in range(n)})
+
+
+def check_shot(a: int, b: int, scene=None) -> None:
+    """UserError for a frame range that cannot be fitted as a shot (backwards, outside ``scene``'s range, too
+    short to withhold N_WITHHELD frames with baked frames between them)."""
+    if b < a:
+        raise UserError(f"--frames {a}-{b}: the shot ends before it starts ({b} < {a})")
+    if scene is not None and (a < scene.frame_start or b > scene.frame_end):
+        raise UserError(f"--frames {a}-{b}: outside scene {scene.name!r}'s frame range "
+                        f"{scene.frame_start}-{scene.frame_end}")
+    if b - a + 1 < MIN_SHOT_FRAMES:
+        raise UserError(f"--frames {a}-{b}: {b - a + 1} frame(s) are too few to withhold {N_WITHHELD} frames for the "
+                        f"test with baked frames between them (a shot needs at least {MIN_SHOT_FRAMES})")
+
+
+def shot_counts(views: int, n_eligible: int, n_cameras: int) -> tuple[int, int]:
+    """(baked frames, jittered cameras) of a shot for about ``views`` views: about a third as many frames as
+    views (at most the eligible frames), and at least 2 jittered cameras (one val, one train)."""
+    if views < 4:
+        raise UserError(f"--views {views}: at least 4 views are needed (training and validation views)")
+    nf = max(2, min(n_eligible, int(round(views / 3.0))))
+    return nf, max(2, math.ceil(views / nf) - n_cameras)
+
+
+def shot_roles(n_jitter: int, rng: random.Random) -> list[str]:
+    """Roles of a shot's jittered cameras: ~25 % val (at least one), the rest train (the test is the withheld
+    frames)."""
+    n_val = max(1, round(0.25 * n_jitter))
+    r = ["val"] * n_val + ["train"] * (n_jitter - n_val)
+    rng.shuffle(r)
+    return r
+
+
+def make_views(scene, views: int = 24, seed: int = 0, frames: tuple[int, int] | None = None) -> dict:
     """Add the jittered cameras to ``scene`` (of a file that will be saved as a copy) and return the plan:
-    frames, and each camera's role (train / val / test)."""
+    frames, and each camera's role (train / val / test). ``frames=(A, B)``: a shot, with whole frames
+    withheld (module doc; ``plan["test_frames"]``, ``plan["test_camera"]``)."""
     from mathutils import Euler, Vector
 
     cams = [o for o in scene.objects if o.type == "CAMERA"]
@@ -92,21 +153,34 @@ def make_views(scene, views: int = 24, seed: int = 0) -> dict:
         cams.remove(scene.camera)
         cams.insert(0, scene.camera)
     rng = random.Random(seed)
-    f0, f1 = scene.frame_start, scene.frame_end
-    anim = _animated(scene) and f1 > f0
-    avail = (f1 - f0 + 1) if anim else 1
-    nf, n_jit = view_counts(views, avail, len(cams))
-    if anim:
-        frames = sorted({f0 + (f1 - f0) * i // max(1, nf - 1) for i in range(nf)}) if nf > 1 else [(f0 + f1) // 2]
+    shot = frames is not None
+    if shot:
+        f0, f1 = int(frames[0]), int(frames[1])
+        check_shot(f0, f1, scene)
+        withheld = withheld_frames(f0, f1)
+        ok = eligible_frames(f0, f1, withheld)
+        nf, n_jit = shot_counts(views, len(ok), len(cams))
+        frames = spread(ok, nf)
+        anim, jitter_roles = True, shot_roles(n_jit, rng)
     else:
-        frames = [scene.frame_current]
+        f0, f1 = scene.frame_start, scene.frame_end
+        anim = _animated(scene) and f1 > f0
+        avail = (f1 - f0 + 1) if anim else 1
+        nf, n_jit = view_counts(views, avail, len(cams))
+        if anim:
+            frames = sorted({f0 + (f1 - f0) * i // max(1, nf - 1) for i in range(nf)}) if nf > 1 else [(f0 + f1) // 2]
+        else:
+            frames = [scene.frame_current]
+        jitter_roles = roles(n_jit, rng)
     radius = JITTER_FRACTION * _bounds_diagonal(scene)
     current = scene.frame_current
     plan = dict(scene=scene.name, frames=frames, radius=radius, max_turn_deg=JITTER_DEG, seed=seed,
                 cameras={c.name: "train" for c in cams}, views=views)
-    for j, role in enumerate(roles(n_jit, rng)):
+    if shot:
+        plan.update(shot=[f0, f1], test_frames=withheld, test_camera=cams[0].name, gap=GAP)
+    for j, role in enumerate(jitter_roles):
         base = cams[j % len(cams)]
-        chosen = rng.randint(f0, f1) if anim else current
+        chosen = (rng.choice(frames) if shot else rng.randint(f0, f1)) if anim else current
         scene.frame_set(chosen)
         m = base.matrix_world.copy()
         direction = Vector([rng.gauss(0, 1) for _ in range(3)])
@@ -205,6 +279,7 @@ def views_tag(blend: Path, plan: dict) -> str:
     with open(blend, "rb") as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
-    h.update(json.dumps({k: plan.get(k) for k in ("scene", "frames", "cameras", "size", "seed", "radius")},
+    keys = ("scene", "frames", "cameras", "size", "seed", "radius") + (("test_frames",) if "test_frames" in plan else ())
+    h.update(json.dumps({k: plan.get(k) for k in keys},
                         sort_keys=True).encode())
     return h.hexdigest()[:8]

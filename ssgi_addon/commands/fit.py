@@ -1,6 +1,7 @@
 """`cli.py fit`: fit a small model to one scene (the fit stage, ssgi_addon/pipeline/fit.py).
 
     cli.py fit --blend shot.blend --out shot_ssgi.pt [--views 24] [--minutes 15] [--target-psnr P] [--size 240x135]
+    cli.py fit --blend shot.blend --out shot_ssgi.pt --frames 1-48    # a shot: 5 whole frames withheld and scored
 
 Writes MODEL (a normal checkpoint whose input spec lists only the kept passes), MODEL.fit_report.json/.md
 beside it, and a work folder MODEL.fit/ (views-TAG.blend: the copy with the jittered cameras; views-TAG/: the
@@ -10,6 +11,7 @@ views baked before (roles from ``--plan``). ``--progress`` writes JSON progress 
 from __future__ import annotations
 
 import json
+import re
 
 from ...model import cliargs
 from ...model.errors import UserError
@@ -23,7 +25,7 @@ def config(args) -> FitSceneConfig:
                           init=args.init, drop_tol=args.drop_tol, ref_samples=args.ref_samples,
                           ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop,
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
-                          command=command_line())
+                          frames=args.frames, command=command_line())
 
 
 def run(args) -> dict:
@@ -35,6 +37,17 @@ def run(args) -> dict:
     progress = (lambda d: sink({"eta_s": d.get("left_s"), **d})) if sink else None  # the budget left is the ETA
     with stdout_to_stderr():
         return fit.run(cfg, progress=progress)
+
+
+def shot_range(text: str) -> tuple[int, int]:
+    """``"A-B"`` -> (A, B): a shot's first and last frame (views.check_shot judges the range)."""
+    m = re.fullmatch(r"\s*(-?\d+)\s*-\s*(-?\d+)\s*", str(text))
+    if not m:
+        raise cliargs.ArgError(f"{text!r} is not a frame range A-B (e.g. 1-48)")
+    a, b = int(m.group(1)), int(m.group(2))
+    if b < a:
+        raise cliargs.ArgError(f"{text!r}: the shot ends before it starts ({b} < {a})")
+    return a, b
 
 
 def _ladder(text: str) -> list:
@@ -65,6 +78,10 @@ def register_cli(sub) -> None:
     p.add_argument("--size", type=cliargs.parse_size, default=None, metavar="WxH",
                    help="views' size (default: 240 wide at the scene's aspect ratio)")
     p.add_argument("--scene", default=None, help="scene name (default: the file's active scene)")
+    p.add_argument("--frames", type=shot_range, default=None, metavar="A-B",
+                   help="fit the shot A..B (within the scene's frame range, at least 20 frames): 5 whole frames spread "
+                        "over it are withheld (nothing baked within a frame of them) and scored after the fit as the "
+                        "node renders them, beside the generic model and Cycles 1 spp + OIDN")
     p.add_argument("--init", default=None, metavar="MODEL",
                    help="checkpoint to fine-tune from (default: the shipped models/ssgi_default.pt when present)")
     p.add_argument("--drop-tol", type=float, default=D.drop_tol, metavar="DB",

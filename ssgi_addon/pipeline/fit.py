@@ -9,6 +9,16 @@
 3. ``views.split_views`` holds out views by camera; ``model.learn.fit.fit`` searches the size, drops inputs and
    writes MODEL and its report (bpy-free).
 
+A shot (``frames=(A, B)``, ``cli.py fit --frames A-B``; issue 16): the views are baked at frames of A..B away
+from ``views.N_WITHHELD`` withheld frames (ssgi_addon/blender/views.py), and after the fit
+``render_withheld`` renders those frames as the node does (``RenderSession`` with the fitted model, at the
+views' size and the file's EEVEE samples; the generic model on the same passes through the same working-
+resolution predictor and compose), Cycles 1 spp + OIDN, and the reference (Cycles ``ref_samples`` spp + OIDN,
+another seed), and the reference's own diffuse part + EEVEE's rest (the ceiling of a diffuse-part model);
+``fit_report.score_withheld`` scores them into the report's ``withheld`` section, whose verdict
+becomes the fit's. Scoring is not part of the fit (the model is written before it): ``minutes`` budgets the bake
+and the training; the summary's ``withheld_minutes`` says what the scoring took.
+
 TAG hashes the .blend's bytes and the plan: the same config on an unchanged file reuses the views already
 baked; an edited file gets new views. ``data=DIR`` fits views baked before (roles from ``plan``, or: cameras
 named ssgi.fit.view_* held out as make_views does). ``minutes`` is the whole budget, bake included.
@@ -58,6 +68,7 @@ class FitSceneConfig:
     min_run_s: float | None = None  # shortest training run worth starting (None: FitConfig's)
     threads: int | None = None  # torch threads
     seed: int = 0
+    frames: tuple[int, int] | None = None  # a shot A..B: withhold whole frames for the test (module doc)
     command: str | None = None  # recorded in the checkpoint
 
     def check(self) -> None:
@@ -78,6 +89,11 @@ class FitSceneConfig:
         fault = cliargs.model_file_fault(self.init) if self.init else None
         if fault:  # before any baking
             raise UserError(f"--init {self.init}: {fault}")
+        if self.frames is not None:
+            from ..blender.views import check_shot
+            if len(self.frames) != 2:
+                raise UserError(f"--frames {self.frames}: give the shot as A-B")
+            check_shot(int(self.frames[0]), int(self.frames[1]))
         if isinstance(self.plan, str) and not Path(self.plan).is_file():
             raise UserError(f"--plan {self.plan}: no such file")
         if self.ladder is not None and not (isinstance(self.ladder, list) and all(
@@ -118,7 +134,7 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         if bpy.context.window is not None and bpy.context.scene != scene:
             bpy.context.window.scene = scene
         report(dict(phase="views", message="adding jittered cameras", progress=0.0))
-        plan = fviews.make_views(scene, cfg.views, cfg.seed)
+        plan = fviews.make_views(scene, cfg.views, cfg.seed, frames=tuple(cfg.frames) if cfg.frames else None)
         size = tuple(cfg.size) if cfg.size else fviews.default_size(scene)
         plan.update(size=list(size), blend=str(blend))
         work.mkdir(parents=True, exist_ok=True)
@@ -137,6 +153,7 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     from ...model.learn import fit as mfit
     from ..blender.node import DEFAULT_MODEL
     init = cfg.init or (str(DEFAULT_MODEL) if DEFAULT_MODEL.is_file() else None)
+    withheld = plan.get("test_frames") if plan else None
     left = 60.0 * cfg.minutes - (time.perf_counter() - t0)
     floor = max(0.1 * 60.0 * cfg.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
     fit_minutes = max(left, floor) / 60.0
@@ -153,14 +170,102 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     if cfg.min_run_s:
         mcfg.min_run_s = cfg.min_run_s
     res = mfit.fit(mcfg, callback=progress, should_stop=should_stop)
-    res.update(bake_minutes=bake_s / 60.0, total_minutes=(time.perf_counter() - t0) / 60.0, views=str(data_dir),
-               init=init)
-    if res.get("report"):  # the bake's share belongs in the report too
+    fit_s = time.perf_counter() - t0  # the fit: bake + training + its report (the budget's)
+    w = None
+    if withheld and res.get("status") == "done":
+        from ...model.evaluate import fit_report
+        report(dict(phase="withheld", message=f"rendering the {len(withheld)} withheld frames", progress=1.0))
+        t1 = time.perf_counter()
+        frames = render_withheld(plan.get("blend") or cfg.blend, plan, plan.get("size"), res["model"], init,
+                                 cfg.ref_samples, work / "withheld", log=log)
+        w = fit_report.score_withheld(frames)
+        w.update(shot=plan["shot"], gap=plan.get("gap"), camera=plan["test_camera"], size=list(frames[0]["ref"].shape[1::-1]),
+                 ref_samples=cfg.ref_samples, seconds=time.perf_counter() - t1, how=WITHHELD_HOW)
+        res.update(withheld=w, verdict=fit_report.withheld_verdict(w))
+        log(res["verdict"])
+    res.update(bake_minutes=bake_s / 60.0, total_minutes=fit_s / 60.0, views=str(data_dir), init=init,
+               withheld_minutes=(w["seconds"] / 60.0) if w else None)
+    if res.get("report"):  # the bake's share (and a shot's withheld frames) belong in the report too
+        from ...model.evaluate import fit_report
         rp = Path(res["report"])
         rep = json.loads(rp.read_text())
         rep.update(bake_minutes=res["bake_minutes"], total_minutes=res["total_minutes"])
-        files.write_json(rp, rep, default=str)
+        if w is not None:
+            rep.update(withheld=w, verdict=res["verdict"], fit_verdict=rep.get("verdict"))
+        fit_report.write(rep, res["model"])
     return res
+
+
+# ------------------------------------------------------------------------------------------------- a shot
+
+WITHHELD_HOW = ("The fitted model through RenderSession (the SSGI node's render path: EEVEE passes at the file's "
+                "samples, working resolution, compose with EEVEE's own rest); the generic model on the same passes "
+                "through the same predictor wrapper and compose.")
+
+
+def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, out_dir=None, log=None) -> list[dict]:
+    """Render a shot's withheld frames (``plan["test_frames"]``, camera ``plan["test_camera"]``) at ``size``
+    (w, h): the SSGI node's image with ``model`` (RenderSession) and with ``generic`` (same passes), Cycles
+    1 spp + OIDN, the reference (Cycles ``ref_samples`` spp + OIDN, another seed) and, for a diffuse-part
+    model, that reference's diffuse part composed with EEVEE's rest as the node composes (``oracle_diffuse``:
+    what a perfect diffuse prediction would score; the rest's error no fit can remove). Returns
+    [{frame, ref, mask, images, seconds}] for ``fit_report.score_withheld``; with ``out_dir``, a PNG sheet a
+    frame (reference | fitted | generic | Cycles 1 spp + OIDN)."""
+    import numpy as np
+
+    from ...model import channels as ch, images
+    from ...model.infer.compose import needs
+    from ...model.infer.workres import WorkingResolution
+    from ..blender import passes
+    from ..blender.blendfile import check_blend, open_blend, pick_scene
+    from ..blender.compositor import setup_scene
+    from ..blender.predictor import load_model
+    from ..blender.scene_state import preserved
+    from .render import RenderSession, compose
+
+    log = log or _stderr
+    blend = check_blend(blend)
+    open_blend(blend)
+    scene = pick_scene(blend, plan.get("scene"))
+    scene.camera = scene.objects[plan["test_camera"]]
+    if size:
+        passes.set_resolution(scene, int(size[0]), int(size[1]))
+    if generic:
+        setup_scene(scene, str(generic))  # the passes the generic model needs too
+    setup_scene(scene, str(model))
+    session = RenderSession(scene, frames=list(plan["test_frames"]), model=str(model), write=False, keep_groups=True)
+    gen = None
+    if generic:
+        gen = WorkingResolution(load_model(Path(generic)), session.working_res)
+        session.groups = tuple(dict.fromkeys(session.groups + ch.required_groups(tuple(gen.spec)) + needs(gen.target)))
+    out = []
+    for info in session.iter_frames():
+        g, f = info["groups"], int(info["frame"])
+        imgs, secs = {"fitted": info["prediction"]}, {"fitted": info["t_total"]}
+        if gen is not None:
+            t = time.perf_counter()
+            want = ch.required_groups(tuple(gen.spec)) + ("normal", "depth", "albedo")
+            p = gen.predict({k: g[k] for k in dict.fromkeys(want) if k in g})
+            imgs["generic"] = compose(p, g, scene.camera.data.clip_end, gen.target)
+            secs["generic"] = info["t_passes"] + time.perf_counter() - t
+        with preserved(scene):
+            t = time.perf_counter()
+            imgs["cycles_1spp_oidn"] = passes.render_cycles(scene, 1, seed=f, denoise=True)["ref"]
+            secs["cycles_1spp_oidn"] = time.perf_counter() - t
+            refs = passes.render_cycles(scene, int(ref_samples), seed=100003 + f, denoise=True,
+                                        groups=("ref", "ref_diffuse"))
+        ref = refs["ref"]
+        if session.target == ch.DIFFUSE_TARGET:  # the ceiling of any diffuse-part model: EEVEE's rest is kept
+            imgs["oracle_diffuse"] = compose(refs["ref_diffuse"], g, scene.camera.data.clip_end, ch.DIFFUSE_TARGET)
+        out.append(dict(frame=f, ref=ref, mask=images.geometry_mask(g["depth"], g["normal"]), images=imgs,
+                        seconds=secs))
+        log(f"fit: withheld frame {f}: " + ", ".join(f"{k} {v:.1f} s" for k, v in secs.items()))
+        if out_dir is not None:
+            Path(out_dir).mkdir(parents=True, exist_ok=True)
+            row = [ref] + [imgs[k] for k in ("fitted", "generic", "cycles_1spp_oidn") if k in imgs]
+            sheet = np.concatenate([np.pad(np.asarray(x, np.float32), ((0, 0), (0, 2), (0, 0))) for x in row], axis=1)
+            images.write_png(Path(out_dir) / f"frame_{f:04d}.png", images.srgb8(sheet))
+    return out
 
 
 # ------------------------------------------------------------------------------------------------- bake
