@@ -266,6 +266,7 @@ class RenderSession:
                 info["prediction"] = rgb
                 if self.history is not None:
                     info["stateless"] = compose(stateless, groups, scene.camera.data.clip_end, self.target)
+                    info["stateless_part"] = stateless
         finally:
             if exr is not None:
                 with contextlib.suppress(OSError):
@@ -310,7 +311,7 @@ class RenderSession:
         return self.summary()
 
     def summary(self) -> dict:
-        res = [{k: v for k, v in r.items() if k not in ("groups", "prediction", "stateless")} for r in self.results]
+        res = [{k: v for k, v in r.items() if k not in ("groups", "prediction", "stateless", "stateless_part")} for r in self.results]
         return {"scene": self.scene.name, "model": str(self.model_path), "inputs": ch.format_spec(self.spec),
                 "runtime": getattr(self.predictor, "runtime", "torch"), "model_file": str(self.predictor.path),
                 "temporal": bool(self.temporal),
