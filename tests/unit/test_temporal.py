@@ -93,3 +93,38 @@ def test_warped_change_is_zero_for_a_steady_error_under_motion_and_sees_flicker(
     noisy = [r * rng.uniform(0.9, 1.1, r.shape).astype(np.float32) for r in frames_ref]
     res = tp.warped_change(noisy, frames_ref, vecs)
     assert res["change"] > 0.01 and len(res["per_step"]) == 4 and res["pixels"][0] == H * (W - 2)
+
+
+def test_the_history_cache_round_trips_an_entry_bitwise_and_survives_a_damaged_file(tmp_path):
+    from ssgi.model.infer import history
+    rng = np.random.default_rng(2)
+    groups = dict(albedo=rng.uniform(0, 1, (H, W, 3)).astype(np.float32),
+                  depth=rng.uniform(1, 9, (H, W, 1)).astype(np.float32),
+                  normal=rng.normal(size=(H, W, 3)).astype(np.float32), vector=_vec(1.3, -0.2))
+    part = rng.uniform(0, 1, (H, W, 3)).astype(np.float32)
+    made = history.make_entry(part, groups)
+    c = history.HistoryCache(tmp_path, "k1", keep=1)
+    c.put(5, made)
+    c.put(6, made)  # keep=1: frame 5 leaves the memory, stays on disk
+    assert 5 not in c.memory and sorted(p.name for p in (tmp_path / "k1").iterdir()) == ["000005.npz", "000006.npz"]
+    back = history.HistoryCache(tmp_path, "k1").get(5)  # another run reads what this one wrote
+    assert set(back) == set(made) and all(np.array_equal(back[k], made[k]) for k in made)
+    (tmp_path / "k1" / "000006.npz").write_bytes(b"cut short")
+    assert history.HistoryCache(tmp_path, "k1").get(6) is None and not (tmp_path / "k1" / "000006.npz").exists()
+    assert history.cache_key(model="a", frame_size=(1, 2)) != history.cache_key(model="b", frame_size=(1, 2))
+    c.clear()
+    assert not tmp_path.joinpath("k1").exists()
+
+
+def test_the_report_writes_the_warped_flicker_section():
+    from ssgi.model.evaluate.markdown import shot_section
+    raw = {}
+    m = dict(warped=0.01, warped_per_step=[0.01], unwarped=0.02, psnr=30.0, tm_psnr=35.0, s_per_frame=1.5)
+    raw["temporal_shot"] = dict(shot="builtin", n_frames=24, frames=[1, 24], size=[160, 90], scored_pixel_share=0.8,
+                                ref_samples=64, cycles_seed="fixed", window=2, weight=0.6,
+                                methods={"SSGI temporal on": m, "Cycles 1 spp + OIDN": m | dict(warped=0.02)},
+                                bar=dict(flicker_at_most_cycles_1spp=True, psnr_cost_db=0.05, psnr_cost_ok=True))
+    md = "\n".join(shot_section(raw["temporal_shot"]))
+    assert shot_section(None) == []
+    assert "## Warped flicker: 24 frames of the shot `builtin`" in md
+    assert "| SSGI temporal on | 0.0100 | 0.0200 | 30.00 | 35.00 | 1.50 |" in md and "+0.05 dB" in md
