@@ -9,7 +9,8 @@ import math
 import bpy
 
 
-def _linear(obj):
+def linear_keys(obj) -> None:
+    """Every keyframe of ``obj``'s action linear (a steady move)."""
     for lay in obj.animation_data.action.layers:
         for st in lay.strips:
             for cb in st.channelbags:
@@ -18,7 +19,8 @@ def _linear(obj):
                         k.interpolation = "LINEAR"
 
 
-def _mat(name, rgb):
+def diffuse_material(name: str, rgb):
+    """A rough diffuse Principled material of colour ``rgb``."""
     m = bpy.data.materials.new(name)
     m.use_nodes = True
     bsdf = m.node_tree.nodes["Principled BSDF"]
@@ -41,7 +43,7 @@ def build_shot(size=(160, 90), frames: int = 24, samples: int = 8):
     sc.eevee.use_fast_gi = True
     bpy.ops.mesh.primitive_plane_add(size=8)
     floor = bpy.context.object
-    floor.data.materials.append(_mat("floor", (0.8, 0.7, 0.5)))
+    floor.data.materials.append(diffuse_material("floor", (0.8, 0.7, 0.5)))
     sub = floor.modifiers.new("sub", "SUBSURF")
     sub.subdivision_type, sub.levels, sub.render_levels = "SIMPLE", 6, 6
     wave = floor.modifiers.new("wave", "WAVE")
@@ -50,12 +52,12 @@ def build_shot(size=(160, 90), frames: int = 24, samples: int = 8):
                                 ("left", (-3.5, 0, 2), (0, math.radians(90), 0), (0.8, 0.8, 0.8)),
                                 ("right", (3.5, 0, 2), (0, math.radians(90), 0), (0.2, 0.7, 0.3))):
         bpy.ops.mesh.primitive_plane_add(size=8, location=loc, rotation=rot)
-        bpy.context.object.data.materials.append(_mat(name, rgb))
+        bpy.context.object.data.materials.append(diffuse_material(name, rgb))
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-1.5, 0.5, 0.6))
     cube = bpy.context.object
-    cube.data.materials.append(_mat("cube", (0.9, 0.2, 0.1)))
+    cube.data.materials.append(diffuse_material("cube", (0.9, 0.2, 0.1)))
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6, location=(1.2, 1.2, 0.6))
-    bpy.context.object.data.materials.append(_mat("sphere", (0.9, 0.9, 0.9)))
+    bpy.context.object.data.materials.append(diffuse_material("sphere", (0.9, 0.9, 0.9)))
     li = bpy.data.lights.new("lamp", "POINT")
     li.energy, li.shadow_soft_size = 600, 0.15
     lo = bpy.data.objects.new("lamp", li)
@@ -74,7 +76,7 @@ def build_shot(size=(160, 90), frames: int = 24, samples: int = 8):
     cube.location = (1.3, -0.6, 0.6)
     cube.keyframe_insert("location", frame=frames)
     for o in (cam, cube):
-        _linear(o)
+        linear_keys(o)
     w = bpy.data.worlds.new("sky")
     w.color = (0.0, 0.0, 0.0)
     sc.world = w

@@ -9,7 +9,8 @@ predictions come from, and the blend itself (model/infer/temporal.py, model/infe
   Blender switches them; the window stops at the first earlier frame with another camera).
 - A missing predecessor (frames out of order, a resumed run) is rendered and predicted then, exactly as its own
   frame would be (the same passes at the same settings), and cached (``HistoryCache``: beside the output
-  frames in ``.ssgi_history/``, or in the temporary folder when nothing is written).
+  frames in ``.ssgi_history/``, or in the temporary folder when nothing is written; in memory only when the
+  scene is not a saved file, or was changed since in the UI).
 """
 from __future__ import annotations
 
@@ -86,7 +87,9 @@ class History:
             scene=scene.name, size=(r.resolution_x, r.resolution_y, r.resolution_percentage),
             samples=session.samples, working_res=session.working_res, groups=list(session.groups),
             passes=session.pass_options)
-        if session.write:
+        if not saved:  # nothing identifies the scene on disk: its history stays in memory (a resume renders it)
+            folder = None
+        elif session.write:
             from .render import output_path
             folder = output_path(scene, session.frames[0], session.out, single=len(session.frames) == 1).parent
             folder = folder / CACHE_DIR

@@ -21,21 +21,7 @@ SCENE = r'''
 import math, sys
 import bpy
 
-def linear(obj):
-    act = obj.animation_data.action
-    for lay in act.layers:
-        for st in lay.strips:
-            for cb in st.channelbags:
-                for fc in cb.fcurves:
-                    for k in fc.keyframe_points:
-                        k.interpolation = "LINEAR"
-
-def mat(name, rgb):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    m.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (*rgb, 1)
-    m.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 1.0
-    return m
+from ssgi.ssgi_addon.blender.temporal_shot import diffuse_material as mat, linear_keys as linear
 
 def build(still=False, cut_at=None):
     bpy.ops.wm.read_factory_settings(use_empty=True)
