@@ -68,16 +68,19 @@ def _taps(rows: np.ndarray, cols: np.ndarray, H: int, W: int):
     return out
 
 
-def _agree(prev: dict, r, c, cur: dict, tol: Tolerances) -> np.ndarray:
-    """HxW bool: the previous frame's guides at (r, c) agree with the current frame's (those both give)."""
-    ok = np.ones(r.shape, bool)
+def _agree(prev: dict, cur: dict, tol: Tolerances) -> np.ndarray:
+    """HxW bool: the previous frame's guides (gathered at the taps) agree with the current frame's (those both
+    give)."""
+    ok = None
     if "depth" in prev and "depth" in cur:
-        zp, z = prev["depth"][r, c, 0], np.asarray(cur["depth"], np.float32)[..., 0]
-        ok &= np.abs(zp - z) <= tol.depth * np.maximum(np.abs(z), EPS)
+        z = cur["depth"][..., 0]
+        ok = np.abs(prev["depth"][..., 0] - z) <= tol.depth * np.maximum(np.abs(z), EPS)
     if "normal" in prev and "normal" in cur:
-        ok &= np.sum(prev["normal"][r, c, :3] * np.asarray(cur["normal"], np.float32)[..., :3], -1) >= tol.normal
+        m = np.einsum("hwc,hwc->hw", prev["normal"][..., :3], cur["normal"][..., :3]) >= tol.normal
+        ok = m if ok is None else ok & m
     if "albedo" in prev and "albedo" in cur:
-        ok &= np.max(np.abs(prev["albedo"][r, c, :3] - np.asarray(cur["albedo"], np.float32)[..., :3]), -1) <= tol.albedo
+        m = np.max(np.abs(prev["albedo"][..., :3] - cur["albedo"][..., :3]), -1) <= tol.albedo
+        ok = m if ok is None else ok & m
     return ok
 
 
@@ -85,21 +88,30 @@ def sample(images: dict, rows, cols, cur: dict | None = None, tol: Tolerances = 
     """Bilinear samples of every HxWxC array of ``images`` at (rows, cols), using only the taps inside the frame
     whose guides (``images``' depth/normal/albedo) agree with ``cur``'s. Returns ({name: HxWxC float32}, weight
     HxW float32 in [0, 1]: the bilinear weight of the taps used; 0 = no valid history). Where the taps used
-    carry all the weight (a still frame: one tap of weight 1) a sample is the tap's value exactly."""
+    carry all the weight (a still frame: one tap of weight 1) a sample is the tap's value exactly. float32;
+    each tap gathers every array once (``np.take`` on the flattened image)."""
     H, W = next(iter(images.values())).shape[:2]
-    taps = _taps(rows, cols, H, W)
-    arrs = {k: np.asarray(v, np.float32) for k, v in images.items()}
-    wsum = np.zeros(rows.shape, np.float64)
-    acc = {k: np.zeros(rows.shape + (a.shape[-1],), np.float64) for k, a in arrs.items()}
-    for r, c, w, inside in taps:
-        ok = inside & (_agree(arrs, r, c, cur, tol) if cur is not None else True)
-        wk = np.where(ok, w, 0.0)
+    h, w_ = rows.shape
+    flat = {k: np.asarray(v, np.float32).reshape(H * W, -1) for k, v in images.items()}
+    cur = {k: np.asarray(v, np.float32) for k, v in cur.items()} if cur is not None else None
+    wsum = np.zeros((h, w_), np.float32)
+    acc = {k: np.zeros((h, w_, a.shape[-1]), np.float32) for k, a in flat.items()}
+    for r, c, wt, inside in _taps(rows, cols, H, W):
+        idx = (r * W + c).ravel()
+        got = {k: np.take(a, idx, axis=0).reshape(h, w_, -1) for k, a in flat.items()}
+        ok = inside
+        if cur is not None:
+            agree = _agree(got, cur, tol)
+            if agree is not None:
+                ok = ok & agree
+        wk = np.where(ok, wt, 0.0).astype(np.float32)
         wsum += wk
-        for k, a in arrs.items():
-            acc[k] += wk[..., None] * a[r, c]
-    safe = np.where(wsum > 0, wsum, 1.0)[..., None]
-    out = {k: np.where(wsum[..., None] > 0, v / safe, 0.0).astype(np.float32) for k, v in acc.items()}
-    return out, wsum.astype(np.float32)
+        for k in acc:
+            acc[k] += wk[..., None] * got[k]
+    has = wsum > 0
+    safe = np.where(has, wsum, np.float32(1.0))[..., None]
+    out = {k: np.where(has[..., None], v / safe, np.float32(0.0)).astype(np.float32) for k, v in acc.items()}
+    return out, wsum
 
 
 def reproject(prev_img: np.ndarray, vector: np.ndarray, prev_guides: dict | None = None,
