@@ -28,7 +28,7 @@ from pathlib import Path
 import _bootstrap  # noqa: F401,E402  (the checkout as package ssgi)
 
 
-def _window_blend(parts, groups, k, w, target):
+def _window_blend(parts, groups, k, w, target, clamp=True):
     """Re-blend the stateless parts with a window of k frames of weight w each (as the render path does)."""
     import numpy as np
     from ssgi.model import channels as ch
@@ -42,7 +42,8 @@ def _window_blend(parts, groups, k, w, target):
         e = entries[t]
         prev = [entries[j] for j in range(t - 1, max(-1, t - 1 - k), -1)]
         warped = tp.reproject_window(prev, e["vector"], {x: e[x] for x in ("depth", "normal", "albedo")}) if prev else []
-        b = tp.blend(p, la(g), warped, [w] * len(warped), geometry=g["albedo"][..., :3].max(-1) > tp.EPS)
+        b = tp.blend(p, la(g), warped, [w] * len(warped), geometry=g["albedo"][..., :3].max(-1) > tp.EPS,
+                     clamp=clamp)
         out.append(compose(b, g, target))
     return out
 
@@ -95,7 +96,9 @@ def main() -> int:
     ap.add_argument("--ref-samples", type=int, default=64)
     ap.add_argument("--eevee-samples", type=int, default=8, help="EEVEE samples of the built shot")
     ap.add_argument("--model", default=None)
+    ap.add_argument("--no-equal-time", action="store_true", help="skip Cycles at equal time (the longest part)")
     a = ap.parse_args()
+    import numpy as np
     from ssgi.model.cliargs import parse_frames, parse_size
     from ssgi.ssgi_addon.blender.compositor import setup_scene
     from ssgi.ssgi_addon.pipeline import shot_measure
@@ -112,14 +115,20 @@ def main() -> int:
     frames = list(parse_frames(a.frames)) if a.frames else list(range(sc.frame_start, sc.frame_end + 1))
     log = lambda m: print(f"temporal bench: {m}", file=sys.stderr, flush=True)
 
-    r = shot_measure.measure(sc, frames, model=a.model, ref_samples=a.ref_samples, log=log, keep_images=True)
+    r = shot_measure.measure(sc, frames, model=a.model, ref_samples=a.ref_samples, log=log, keep_images=True,
+                             equal_time=not a.no_equal_time)
     res, seqs, refs, vectors, masks = r["methods"], r["images"], r["refs"], r["vectors"], r["masks"]
     parts, groups, target = r["parts"], r["groups"], r["target"]
     sweep = []
-    for k in (1, 2, 3, 4):
-        for w in (0.3, 0.6, 1.0, 2.0):
-            sc_ = shot_measure.score(_window_blend(parts, groups, k, w, target), refs, vectors, masks)
-            sweep.append(dict(k=k, weight=w, warped=sc_["warped"], psnr=sc_["psnr"], tm_psnr=sc_["tm_psnr"]))
+    for clamp in (False, True):
+        for k in (1, 2, 3, 4):
+            for w in (0.3, 0.6, 1.0, 2.0):
+                sc_ = shot_measure.score(_window_blend(parts, groups, k, w, target, clamp), refs, vectors, masks)
+                sweep.append(dict(clamp=clamp, k=k, weight=w, warped=sc_["warped"], psnr=sc_["psnr"],
+                                  tm_psnr=sc_["tm_psnr"]))
+    np.savez(out / "frames.npz", **{f"part_{i}": p for i, p in enumerate(parts)},
+             **{f"ref_{i}": x for i, x in enumerate(refs)},
+             **{f"{g}_{i}": v for i, gr in enumerate(groups) for g, v in gr.items()})
     _figures(out, seqs, refs, vectors, masks, first=len(frames) // 2)
     mask_share = r["scored_pixel_share"]
     summary = {k: v for k, v in r.items() if k not in ("images", "refs", "vectors", "masks", "parts", "groups")}
@@ -132,9 +141,9 @@ def main() -> int:
     for k, r in res.items():
         print(f"| {k} | {r['warped']:.4f} | {r['unwarped']:.4f} | {r['psnr']:.2f} | {r['tm_psnr']:.2f} | "
               f"{r['s_per_frame']:.2f} |")
-    print("\n| k | weight | warped flicker | PSNR dB | tm PSNR dB |\n|---|---|---|---|---|")
+    print("\n| clamp | k | weight | warped flicker | PSNR dB | tm PSNR dB |\n|---|---|---|---|---|---|")
     for r in sweep:
-        print(f"| {r['k']} | {r['weight']} | {r['warped']:.4f} | {r['psnr']:.2f} | {r['tm_psnr']:.2f} |")
+        print(f"| {r['clamp']} | {r['k']} | {r['weight']} | {r['warped']:.4f} | {r['psnr']:.2f} | {r['tm_psnr']:.2f} |")
     print(json.dumps(summary["bar"]))
     return 0
 

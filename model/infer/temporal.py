@@ -36,6 +36,7 @@ WINDOW = 2  # k: frames t-1..t-k blended into t
 HISTORY_WEIGHT = 0.6  # weight of each history frame against 1 for the current frame (times its confidence)
 # a frame whose reprojected history covers less than this share of its geometry pixels counts as a cut
 CUT_COVERAGE = 0.25
+CLAMP = True  # clamp history to the present frame's 3 x 3 light range (blend)
 EPS = 1e-4
 
 
@@ -150,8 +151,22 @@ def reproject_window(history: list[dict], vector: np.ndarray, cur: dict, tol: To
     return out
 
 
+def neighbourhood(light: np.ndarray, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """(min, max) per channel over the (2 radius + 1)^2 pixels around each pixel (edge pixels repeated)."""
+    H, W = light.shape[:2]
+    p = np.pad(light, ((radius, radius), (radius, radius), (0, 0)), mode="edge")
+    lo, hi = light.copy(), light.copy()
+    for dy in range(2 * radius + 1):
+        for dx in range(2 * radius + 1):
+            v = p[dy:dy + H, dx:dx + W]
+            np.minimum(lo, v, out=lo)
+            np.maximum(hi, v, out=hi)
+    return lo, hi
+
+
 def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, np.ndarray]],
-          weights=None, geometry: np.ndarray | None = None, cut_coverage: float = CUT_COVERAGE) -> np.ndarray:
+          weights=None, geometry: np.ndarray | None = None, cut_coverage: float = CUT_COVERAGE,
+          clamp: bool = CLAMP) -> np.ndarray:
     """Frame t's diffuse part blended with the reprojected diffuse light of earlier frames.
 
     ``history``: [(light HxWx3, valid HxW in [0, 1])], t-1 first; ``weights``: each history frame's weight
@@ -159,7 +174,10 @@ def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, 
     (L_t + sum_j w_j v_j L_j) / (1 + sum_j w_j v_j), written as part_t + albedo_t x the change, so that a
     pixel with no valid history, or whose history equals L_t, is ``part`` bit for bit. When the first history
     frame covers less than ``cut_coverage`` of the ``geometry`` pixels (default: albedo > 0) the frame is
-    taken as a cut and ``part`` comes back unchanged."""
+    taken as a cut and ``part`` comes back unchanged. With ``clamp`` each history light is first clamped to the
+    range of the current light over the 3 x 3 pixels around (the neighbourhood clamp of temporal anti-aliasing):
+    history can smooth what flickers within the present frame's local range, never drag a moved shadow or a
+    change of light along (lag); a history equal to the present is inside that range and stays exact."""
     part = np.asarray(part, np.float32)
     if not history:
         return part
@@ -168,11 +186,14 @@ def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, 
     if not geo.any() or float(np.mean(history[0][1][geo] > 0.5)) < cut_coverage:
         return part
     ws = list(weights) if weights is not None else [HISTORY_WEIGHT] * len(history)
-    cur = light_of(part, albedo).astype(np.float64)
+    cur32 = light_of(part, albedo)
+    lo, hi = neighbourhood(cur32) if clamp else (None, None)
+    cur = cur32.astype(np.float64)
     num = np.zeros(cur.shape, np.float64)
     den = np.ones(cur.shape[:2], np.float64)
     for (light, valid), w in zip(history, ws):
         wv = w * np.asarray(valid, np.float64)
+        light = np.clip(light, lo, hi) if clamp else light
         num += wv[..., None] * (np.asarray(light, np.float64) - cur)
         den += wv
     change = (num / den[..., None]).astype(np.float32)

@@ -53,7 +53,8 @@ def _cycles(scene, frames, spp, seed):
     return imgs, ts
 
 
-def measure(scene, frames, model=None, ref_samples: int = 64, log=None, keep_images: bool = False) -> dict:
+def measure(scene, frames, model=None, ref_samples: int = 64, log=None, keep_images: bool = False,
+            equal_time: bool = True) -> dict:
     """The shot's table (see the module docstring). The scene needs an SSGI node (compositor.setup_scene). With
     ``keep_images`` the result also holds "images" {method: [HxWx3]}, "refs", "vectors", "masks", "parts" (the
     stateless diffuse parts) and "groups" (per frame: KEEP), for figures and re-blends."""
@@ -76,22 +77,23 @@ def measure(scene, frames, model=None, ref_samples: int = 64, log=None, keep_ima
     t_model = float(np.mean(t_ssgi))
     scene.frame_set(frames[0])
     ladder = []
-    for spp in LADDER:
+    for spp in LADDER if equal_time else ():
         t0 = time.perf_counter()
         passes.render_cycles(scene, spp, seed=CYCLES_SEED, denoise=True)
         ladder.append((spp, time.perf_counter() - t0))
         if ladder[-1][1] > t_model:
             break
-    eq = min(ladder, key=lambda st: abs(st[1] - t_model))[0]
+    eq = min(ladder, key=lambda st: abs(st[1] - t_model))[0] if ladder else 1
     log(f"equal time: {eq} spp (ladder {ladder})")
     c1, t_c1 = _cycles(scene, frames, 1, CYCLES_SEED)
     ceq, t_ceq = _cycles(scene, frames, eq, CYCLES_SEED) if eq != 1 else (c1, t_c1)
     refs, t_ref = _cycles(scene, frames, ref_samples, 1)
     eq_name = f"Cycles {eq} spp + OIDN (equal time)"
-    seqs = {"SSGI temporal on": on, "SSGI temporal off": off, "EEVEE GI": eevee, "Cycles 1 spp + OIDN": c1,
-            eq_name: ceq}
+    seqs = {"SSGI temporal on": on, "SSGI temporal off": off, "EEVEE GI": eevee, "Cycles 1 spp + OIDN": c1}
+    seqs |= {eq_name: ceq} if equal_time else {}
     times = {"SSGI temporal on": t_model, "SSGI temporal off": t_model, "EEVEE GI": float(np.nanmean(t_eevee)),
              "Cycles 1 spp + OIDN": float(np.mean(t_c1)), eq_name: float(np.mean(t_ceq))}
+    times = {k: v for k, v in times.items() if k in seqs}
     methods = {k: score(v, refs, vectors, masks) | {"s_per_frame": times[k]} for k, v in seqs.items()}
     on_, off_, c1_ = methods["SSGI temporal on"], methods["SSGI temporal off"], methods["Cycles 1 spp + OIDN"]
     res = dict(scene=scene.name, frames=[frames[0], frames[-1]], n_frames=len(frames),

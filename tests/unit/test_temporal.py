@@ -69,8 +69,13 @@ def test_the_blend_is_the_stateless_prediction_bitwise_without_history_and_for_a
     v[:1] = 1
     assert np.array_equal(tp.blend(part, albedo, [(other, v)]), part)
     # a valid history moves the light towards it by w / (1 + w), and the diffuse part is light x albedo
-    out = tp.blend(part, albedo, [(other, np.ones((H, W), np.float32))], weights=[1.0])
+    out = tp.blend(part, albedo, [(other, np.ones((H, W), np.float32))], weights=[1.0], clamp=False)
     assert np.allclose(out, albedo * 2 * light, rtol=1e-5)
+    # the neighbourhood clamp: a history far above the present is cut to the 3 x 3 maximum of the present light
+    out = tp.blend(part, albedo, [(other, np.ones((H, W), np.float32))], weights=[1.0])
+    hi = tp.neighbourhood(light)[1]
+    assert np.allclose(out, albedo * 0.5 * (light + np.minimum(other, hi)), rtol=1e-5)
+    assert (out < albedo * 2 * light * (1 - 1e-3)).any()
 
 
 def test_the_window_chains_the_vectors_into_older_frames():
