@@ -21,6 +21,7 @@ class Group:
     name: str
     components: tuple[str, ...]
     kind: str  # "color" [0,1] | "normal" unit vector | "depth" metres | "light" HDR >= 0 | "unit" [0,1] | "alpha"
+    # | "motion" pixels (the Vector pass: an extra of the render path, never stored in samples nor an input)
     source: str  # which renderer writes it, for the docs and the node
     blender_pass: str | None  # Blender view-layer pass that produces it (None: derived or Combined)
     units: str
@@ -92,6 +93,11 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "reflections, transmission (glass), volumes. Not a network input: the SSGI image of a model that "
           "predicts the diffuse part (target ref_diffuse) is prediction + rest (model/infer/compose.py).",
           render_pass=None),
+    Group("vector", ("X", "Y", "Z", "W"), "motion", "eevee", "use_pass_vector", "pixels",
+          "EEVEE Vector pass (motion vectors): X, Y = the pixel's position in the PREVIOUS frame minus its position "
+          "now, Z, W = its position now minus its position in the NEXT frame, in pixels, x right, y UP (measured: "
+          "model/infer/temporal.py). Not a network input: the temporal mode reprojects earlier frames with it.",
+          render_pass="Vector", preview="grey"),
     Group("eevee", ("R", "G", "B", "A"), "light", "eevee", None, "linear radiance (HDR)",
           "EEVEE's own direct-lit Combined image with the same hard lights; the 'local illumination' baseline.",
           render_pass="Combined"),

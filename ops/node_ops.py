@@ -165,6 +165,18 @@ def register_extra():
         name="Working Resolution", default="",
         description="Resolution the network predicts at, upsampled with the full-resolution G-buffer: auto (1/4 "
                     "linear from 960 px wide, else full), full, 2x/4x/8x (1/N per axis) or a size such as 480x270")
+    # an enum drawn as a menu, stored as the plain string ID property the render path reads (render_temporal.py)
+    modes = ("auto", "on", "off")
+    bpy.types.CompositorNodeGroup.ssgi_temporal = bpy.props.EnumProperty(
+        name="Temporal", default="auto",
+        items=[("auto", "Auto", "On when rendering more than one frame (an animation)"),
+               ("on", "On", "Blend each frame with the motion-reprojected predictions of the frames before it"),
+               ("off", "Off", "Every frame on its own")],
+        get=lambda self: modes.index(str(self.get("ssgi_temporal", "auto") or "auto"))
+        if str(self.get("ssgi_temporal", "auto") or "auto") in modes else 0,
+        set=lambda self, i: self.__setitem__("ssgi_temporal", modes[i]),
+        description="Blend each frame with the motion-reprojected predictions of the frames before it "
+                    "(less flicker; docs/temporal.md)")
     for menu, fn in _MENUS:
         m = getattr(bpy.types, menu, None)
         if m is not None:
@@ -180,6 +192,6 @@ def unregister_extra():
         m = getattr(bpy.types, menu, None)
         if m is not None:
             m.remove(fn)
-    for prop in ("ssgi_model", "ssgi_working_res"):
+    for prop in ("ssgi_model", "ssgi_working_res", "ssgi_temporal"):
         if hasattr(bpy.types.CompositorNodeGroup, prop):
             delattr(bpy.types.CompositorNodeGroup, prop)

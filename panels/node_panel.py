@@ -24,6 +24,8 @@ def _draw(layout, context):
         col.prop(node, "ssgi_model", text="Model")
     if hasattr(node, "ssgi_working_res"):
         col.prop(node, "ssgi_working_res", text="Working Res", placeholder="auto")
+    if hasattr(node, "ssgi_temporal"):
+        col.prop(node, "ssgi_temporal", text="Temporal")
     path = ssgi_node.resolve_model(scene)
     col.label(text=f"Uses: {path.name}" + ("" if path.is_file() else "  (missing!)"),
               icon="CHECKMARK" if path.is_file() else "ERROR")

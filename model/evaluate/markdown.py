@@ -104,6 +104,7 @@ def report_md(raw: dict) -> str:
         for name, r in tp["methods"].items():
             L.append(f"| {name} | {r['change']:.4f} | {r['mean_abs_error']:.4f} |")
         L.append("")
+    L += shot_section(raw.get("temporal_shot"))
     tg = raw.get("targets", {})
     if tg:
         L += ["## Issue 6 targets for the default model (measured, not asserted)", "", "```",
@@ -121,3 +122,26 @@ def report_md(raw: dict) -> str:
     if raw.get("notes"):
         L += ["## Notes", ""] + [f"- {n}" for n in raw["notes"]] + [""]
     return "\n".join(L)
+
+
+def shot_section(ts: dict | None) -> list[str]:
+    """The report's warped-flicker section of a shot (ssgi_addon/pipeline/shot_measure.py), or nothing."""
+    if not ts:
+        return []
+    L: list[str] = []
+    L += [f"## Warped flicker: {ts['n_frames']} frames of the shot `{ts['shot']}` (frames {ts['frames'][0]}-"
+          f"{ts['frames'][1]}, {ts['size'][0]}x{ts['size'][1]})", "",
+          "Each method's frame-to-frame change after reprojecting frame t-1 into t with EEVEE's motion vectors, "
+          "minus the reference's own change (mean |(m_t - warp m_t-1) - (r_t - warp r_t-1)|, Reinhard "
+          f"tonemap, on the {100 * ts['scored_pixel_share']:.0f} % of the pixels that are the same surface in "
+          f"both frames; lower is steadier); reference Cycles {ts['ref_samples']} spp + OIDN; Cycles' seed is "
+          f"{ts['cycles_seed']}. SSGI's temporal window: {ts['window']} frames of weight {ts['weight']}.", "",
+          "| method | warped flicker | unwarped change of error | PSNR dB | tonemapped PSNR dB | s/frame |",
+          "|---|---|---|---|---|---|"]
+    for name, r in ts["methods"].items():
+        L.append(f"| {name} | {r['warped']:.4f} | {r['unwarped']:.4f} | {r['psnr']:.2f} | {r['tm_psnr']:.2f} | "
+                 f"{r['s_per_frame']:.2f} |")
+    L += ["", f"Bar (issue 16): SSGI temporal at most Cycles 1 spp + OIDN's warped flicker: "
+          f"{ts['bar']['flicker_at_most_cycles_1spp']}; PSNR cost against temporal off "
+          f"{ts['bar']['psnr_cost_db']:+.2f} dB (at most 0.3: {ts['bar']['psnr_cost_ok']}).", ""]
+    return L

@@ -416,8 +416,11 @@ WORLD_SAMPLES = 1
 # groups rendered by a render of their own (direct_light.py: soft direct light; the emitters' direct light, a
 # Cycles render), in this order
 OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct", "surround")  # surround: ray casts, no render
-# every input group a render of the scene gives (emit_direct is Cycles', the rest EEVEE's)
-INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround")
+# every input group a render of the scene gives (emit_direct is Cycles', surround ray casts, the rest EEVEE's), and
+# the extras the render path asks for: "vector" (EEVEE's motion vectors, from the direct-only raster render; the
+# temporal mode)
+EXTRA_GROUPS: tuple[str, ...] = ("vector",)
+INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround") + EXTRA_GROUPS
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,

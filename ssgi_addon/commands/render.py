@@ -20,7 +20,8 @@ def run(args) -> dict:
 
     cfg = render.RenderConfig(blend=args.blend, out=args.out, frames=args.frames, model=args.model,
                               scene=args.scene, samples=args.samples, setup=args.setup, save_passes=args.save_passes,
-                              runtime=args.runtime, device=args.device, working_res=args.working_res)
+                              runtime=args.runtime, device=args.device, working_res=args.working_res,
+                              temporal=args.temporal)
     frames = len(args.frames) if args.frames else 1
     try:
         from tqdm import tqdm
@@ -58,4 +59,8 @@ def register_cli(sub) -> None:
                    help="resolution the network predicts at, upsampled with the full-resolution G-buffer: auto "
                         "(1/4 per axis for outputs >= 960 px wide, else full), full, 4x (1/4 per axis) or a size "
                         "such as 480x270 (default: the SSGI node's setting, else auto; docs/working_res.md)")
+    p.add_argument("--temporal", choices=("auto", "on", "off"), default=None,
+                   help="blend each frame with the motion-reprojected predictions of the frames before it (less "
+                        "flicker): auto = on when more than one frame is rendered (default: the SSGI node's "
+                        "setting, else auto; docs/temporal.md)")
     p.set_defaults(func=run)

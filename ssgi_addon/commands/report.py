@@ -75,6 +75,14 @@ def register_cli(sub) -> None:
                    help="frames of the camera move for temporal stability (default %(default)s; 0 or 1 skips it)")
     p.add_argument("--temporal-ref-samples", type=cliargs.positive_int, default=None,
                    help="reference samples per frame of the camera move (default: the dataset's reference setting)")
+    p.add_argument("--shot", default=None, metavar="SHOT.blend|builtin",
+                   help="also measure the warped flicker of a shot (a camera move and a moving object): SSGI with "
+                        "its temporal mode on and off, EEVEE GI, Cycles 1 spp + OIDN and at equal time, against "
+                        "the reference (--temporal-ref-samples); 'builtin' builds a 24-frame shot (docs/temporal.md)")
+    p.add_argument("--shot-frames", type=cliargs.parse_frames, default=None,
+                   help="frames of --shot, e.g. 1-24 (default: its frame range)")
+    p.add_argument("--shot-size", type=cliargs.parse_size, default=D.shot_size,
+                   help="resolution of --shot (default 160x90)")
     p.add_argument("--threads", type=cliargs.positive_int, default=D.threads,
                    help="torch threads for the predictions (default %(default)s, the add-on's default)")
     p.add_argument("--working-res", type=cliargs.working_res, default=D.working_res, metavar="auto|full|Nx|WxH",
@@ -94,6 +102,7 @@ def config(args) -> ReportConfig:
                         eevee_samples=args.eevee_samples, eevee_high_samples=args.eevee_high_samples,
                         ssgi_samples=args.ssgi_samples, sizes=tuple(args.sizes), scaling=not args.no_scaling, temporal_frames=args.temporal_frames,
                         temporal_ref_samples=args.temporal_ref_samples, threads=args.threads,
+                        shot=args.shot, shot_frames=args.shot_frames, shot_size=tuple(args.shot_size),
                         working_res=args.working_res,
                         fit_baseline=not args.no_fit_baseline,
                         command="cli.py " + " ".join(shlex.quote(a) for a in argv))

@@ -27,7 +27,8 @@ DEFAULT_DENOISE = False
 DEFAULT_EEVEE_SAMPLES = 1
 CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
 # what a new folder's samples hold: every input group and both references, not the artist-settings render rest
-BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS if g != "rest")
+# (nor the render path's extras: the motion vectors are not a network input)
+BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS if g not in ("rest",) + passes.EXTRA_GROUPS)
 BAKE_GROUPS = BAKE_INPUT_GROUPS + CYCLES_SAMPLE_GROUPS
 ROOM_MODES = room.MODES
 

@@ -24,6 +24,10 @@ Renders are driven from a plain loop (``run``) or one frame per UI timer tick (t
 render handlers (that stopped or crashed animations, shared/blender5-notes.md). Cancelling between frames
 keeps the frames already written. A ``render_pre`` handler (``on_render_pre``) puts the placeholder into the
 node's image before any render that is not this path's, and says so on stderr.
+
+With the temporal mode on (``temporal``: render_temporal.py) the prediction of step 2 is blended with the
+reprojected stateless predictions of the frames before it. Over 400 lines by a few: the frame loop, its stage
+and the plain-render guard share the session's conventions.
 """
 from __future__ import annotations
 
@@ -118,7 +122,7 @@ class RenderSession:
     def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
                  samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
                  predictor=None, checks: bool = True, runtime: str | None = None, device: str | None = None,
-                 pass_options: dict | None = None, working_res: str | None = None):
+                 pass_options: dict | None = None, working_res: str | None = None, temporal: str | None = None):
         self.scene = scene
         self.frames = list(frames) if frames is not None else [scene.frame_current]
         if not self.frames:
@@ -174,25 +178,50 @@ class RenderSession:
         self.save_passes = Path(save_passes) if save_passes else None
         self.keep_groups = keep_groups
         self.pass_options = dict(pass_options or {})  # more keywords of passes.render_gbuffer (benchmarks/pass_cost.py)
+        # the temporal mode (render_temporal.py): blend earlier frames' reprojected predictions into each frame
+        from . import render_temporal
+        self.temporal = render_temporal.resolve(scene, temporal, len(self.frames))
+        if self.temporal:
+            self.groups += ("vector",)
+        self.history = render_temporal.History(self) if self.temporal else None
         self.cancelled = False
         self.results: list[dict] = []
+
+    def _passes(self) -> dict:
+        """The current frame's passes; called inside ``preserved``."""
+        from ..blender import passes
+
+        groups = passes.render_gbuffer(self.scene, self.groups, samples=self.samples, rest_samples=self.samples,
+                                       **self.pass_options)
+        missing = [g for g in self.groups if g not in groups]
+        if missing:
+            raise UserError(f"the pass render returned no {', '.join(missing)} for scene {self.scene.name!r}")
+        return groups
+
+    def _predict(self, groups: dict):
+        want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
+        return self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+
+    def _stateless(self, frame: int):
+        """(groups, stateless prediction) of ``frame``: what its own render predicts (the temporal history)."""
+        self.scene.frame_set(frame)
+        with preserved(self.scene):
+            groups = self._passes()
+        return groups, self._predict(groups)
 
     def _frame(self, frame: int) -> dict:
         from ..blender import passes
 
         scene = self.scene
         info: dict = {"frame": frame}
+        entries = self.history.prepare(frame, info) if self.history is not None else []
         scene.frame_set(frame)
         exr = None
         try:
             with preserved(scene):
                 t0 = time.perf_counter()
-                groups = passes.render_gbuffer(scene, self.groups, samples=self.samples, rest_samples=self.samples,
-                                               **self.pass_options)
+                groups = self._passes()
                 info["t_pass_renders"] = dict(passes.last_timings)
-                missing = [g for g in self.groups if g not in groups]
-                if missing:
-                    raise UserError(f"the pass render returned no {', '.join(missing)} for scene {scene.name!r}")
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()
@@ -201,8 +230,10 @@ class RenderSession:
                 save_multilayer(scene, exr)
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
-            want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
-            pred = self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+            pred = self._predict(groups)
+            if self.history is not None:
+                stateless = pred
+                pred = self.history.apply(frame, pred, groups, entries, info)
             rgb = compose(pred, groups, scene.camera.data.clip_end, self.target)
             info["t_predict"] = time.perf_counter() - t0
             info["working_factor"] = self.predictor.last_factor
@@ -233,6 +264,9 @@ class RenderSession:
             if self.keep_groups:
                 info["groups"] = groups
                 info["prediction"] = rgb
+                if self.history is not None:
+                    info["stateless"] = compose(stateless, groups, scene.camera.data.clip_end, self.target)
+                    info["stateless_part"] = stateless
         finally:
             if exr is not None:
                 with contextlib.suppress(OSError):
@@ -259,8 +293,13 @@ class RenderSession:
                 log(f"frame {f} ({i + 1}/{len(self.frames)}): passes {info['t_passes']:.2f} s, predict "
                     f"{info['t_predict']:.2f} s, composite {info['t_composite']:.2f} s"
                     + (f", wrote {info['path']}" if "path" in info else "")
-                    + (f", repaired {info['repaired_pixels']} non-finite input pixel(s)" if info["repaired_pixels"] else ""))
+                    + (f", repaired {info['repaired_pixels']} non-finite input pixel(s)" if info["repaired_pixels"] else "")
+                    + (f", history {info['history_frames']} (rendered {info['history_rendered']})"
+                       if info.get("history_rendered") else ""))
                 yield info
+            else:
+                if self.history is not None:  # every frame rendered: the history is not needed for a resume
+                    self.history.finish()
         finally:
             _ACTIVE -= 1
             if scene.frame_current != frame0:
@@ -272,9 +311,10 @@ class RenderSession:
         return self.summary()
 
     def summary(self) -> dict:
-        res = [{k: v for k, v in r.items() if k not in ("groups", "prediction")} for r in self.results]
+        res = [{k: v for k, v in r.items() if k not in ("groups", "prediction", "stateless", "stateless_part")} for r in self.results]
         return {"scene": self.scene.name, "model": str(self.model_path), "inputs": ch.format_spec(self.spec),
                 "runtime": getattr(self.predictor, "runtime", "torch"), "model_file": str(self.predictor.path),
+                "temporal": bool(self.temporal),
                 "frames": [r["frame"] for r in res], "files": [r["path"] for r in res if "path" in r],
                 "cancelled": self.cancelled, "warnings": list(self.warnings), "per_frame": res}
 
@@ -315,6 +355,7 @@ class RenderConfig:
     runtime: str | None = None  # what runs the network (model/infer/contract.RUNTIMES; None: preferences/auto)
     device: str | None = None  # where (contract.DEVICES; None: preferences/auto)
     working_res: str | None = None  # network resolution: auto|full|Nx|WxH (None: the SSGI node's, else auto)
+    temporal: str | None = None  # auto|on|off: blend reprojected earlier frames (None: the SSGI node's, else auto)
 
     def check(self) -> None:
         from ..blender.blendfile import check_blend
@@ -329,6 +370,9 @@ class RenderConfig:
                 parse_setting(self.working_res)
             except UserError as e:
                 raise UserError(f"--working-res: {e}") from None
+        if self.temporal is not None:
+            from .render_temporal import check_setting
+            check_setting(self.temporal, "--temporal")
 
 
 def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
@@ -350,7 +394,7 @@ def run(cfg: RenderConfig, progress=None, should_stop=None) -> dict:
     frames = list(cfg.frames) if cfg.frames else [scene.frame_current]
     session = RenderSession(scene, frames, model=cfg.model, out=cfg.out, samples=cfg.samples,
                             save_passes=cfg.save_passes, runtime=cfg.runtime, device=cfg.device,
-                            working_res=cfg.working_res)
+                            working_res=cfg.working_res, temporal=cfg.temporal)
     print(f"SSGI render: {blend.name} scene {scene.name!r}, {len(frames)} frame(s), model {session.model_path} "
           f"({session.predictor.runtime} on {session.predictor.device})",
           file=sys.stderr)

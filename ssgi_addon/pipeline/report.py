@@ -41,6 +41,9 @@ class ReportConfig:
     scaling: bool = True  # measure the scaling
     temporal_frames: int = 4  # frames of the camera move for temporal stability (0 or 1 skips it)
     temporal_ref_samples: int | None = None  # reference samples per frame of it (None: the dataset's)
+    shot: str | None = None  # a shot .blend (or "builtin") for the warped flicker measure (shot_measure.py)
+    shot_frames: tuple | None = None  # its frames (None: its frame range)
+    shot_size: tuple[int, int] = (160, 90)  # its resolution
     threads: int = 1  # torch threads for the predictions (the add-on's default)
     working_res: str = "auto"  # the network's resolution, as the node's setting (model/infer/workres.py)
     fit_baseline: bool = True  # with data and no linear model among models, fit one (closed form, seconds)
@@ -76,6 +79,10 @@ class ReportConfig:
             parse_setting(self.working_res)
         except UserError as e:
             raise UserError(f"--working-res: {e}") from None
+        if self.shot and self.shot != "builtin" and not Path(self.shot).is_file():
+            raise UserError(f"--shot {self.shot}: no such file (or 'builtin' for the shot built in code)")
+        if self.shot_frames is not None and len(self.shot_frames) < 2:
+            raise UserError("--shot-frames: give at least two frames")
         if self.scaling and not self.sizes:
             raise UserError("--sizes: give at least one size (or turn the scaling off: --no-scaling)")
 
@@ -184,6 +191,12 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
         raw["scaling"] = runner.scaling(scenes[0], settings.sizes)
     if cfg.temporal_frames >= 2:
         raw["temporal"] = runner.temporal(scenes[0], raw["default_model_key"], cfg.temporal_frames)
+    if cfg.shot:  # last: it opens the shot's file in place of the scenes
+        from . import shot_measure
+        key = raw["default_model_key"]
+        model = runner._model_keys[key][0] if key in runner._model_keys else None
+        raw["temporal_shot"] = shot_measure.run_shot(cfg.shot, cfg.shot_frames, cfg.shot_size, model,
+                                                     settings.temporal_ref_samples, log=log)
     machine["loadavg_end"] = list(os.getloadavg())
     raw.update(date=record.now(), command=cfg.command or "ssgi_addon.pipeline.report.run", machine=machine,
                versions=dict(record.versions(), blender=bpy.app.version_string), settings=settings.as_dict(),
