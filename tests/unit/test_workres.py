@@ -151,7 +151,9 @@ def test_the_shipped_model_at_a_working_resolution_stays_exact_under_tiling():
 
     pred = load_predictor(ROOT / "models" / "ssgi_default.pt", num_threads=1)
     g = synthetic.with_emission(synthetic.sample(256, 144, seed=3, scene_seed=4), 3)
-    g = {k: v for k, v in g.items()} | {x: g.get(x, np.zeros_like(g["direct"])) for x in pred.required}
+    from ssgi.model import channels as ch
+    hw = g["direct"].shape[:2]
+    g = {k: v for k, v in g.items()} | {x: g.get(x, np.zeros(hw + (ch.group_size(x),), np.float32)) for x in pred.required}
     w = wr.WorkingResolution(pred, "2x")
     whole = w.predict(g, tile=None)
     tiled = w.predict(g, tile=32)  # the network runs tiled at 128 x 72
