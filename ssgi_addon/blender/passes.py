@@ -334,9 +334,13 @@ def render_world(scene, samples: int = 1) -> np.ndarray:
         h = int(r.resolution_y * r.resolution_percentage / 100)
         w = int(r.resolution_x * r.resolution_percentage / 100)
         return np.zeros((h, w, 3), np.float32)
-    configure_gbuffer(scene, ("direct",), samples=samples)
-    with _hidden_from_render(scene, ("LIGHT", "LIGHT_PROBE")):  # the scene's world as it is
-        passes = _render(scene)
+    # the scene's settings are put back: called alone (the report renders the world pass apart), a left-over
+    # direct-only configuration (ray tracing and fast GI off) made the next render of the artist's settings, the
+    # rest, lose its ray-traced reflections and refraction (a black gold sphere and glass in the report's studio)
+    with _settings_kept(scene):
+        configure_gbuffer(scene, ("direct",), samples=samples)
+        with _hidden_from_render(scene, ("LIGHT", "LIGHT_PROBE")):  # the scene's world as it is
+            passes = _render(scene)
     return _group(passes, "world")[..., :3]
 
 

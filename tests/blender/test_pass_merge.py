@@ -64,3 +64,22 @@ def test_merged_render_gives_the_separate_renders_groups(tmp_path):
     assert res["merged_sources"]["direct"] == res["merged_sources"]["eevee"] == "raster", res["merged_sources"]
     # rest at other samples: albedo from the 2-sample direct-only render, i.e. as the separate call's
     assert res["other_sources"]["albedo"] == "raster" and res["albedo_other_vs_1"] <= TOL, res
+
+
+def test_the_world_pass_alone_puts_the_artists_settings_back():
+    code = """
+    import json
+    import bpy
+    from ssgi.ssgi_addon.blender import passes, room
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = room.build_room(1, bpy.context.scene, mode="artist")   # an open room under a sky: the pass renders
+    passes.set_resolution(scene, 32, 18)
+    ee = scene.eevee
+    ee.use_raytracing, ee.use_fast_gi, ee.taa_render_samples = True, True, 7
+    w = passes.render_world(scene, samples=1)
+    print("JSON" + json.dumps(dict(rt=ee.use_raytracing, gi=ee.use_fast_gi, n=ee.taa_render_samples,
+                                   lit=float(w.max()), world=room.room_params(1, "artist")["world"]["type"])))
+    """
+    out = json.loads(run_py(code, timeout=300).stdout.split("JSON", 1)[1])
+    assert out["world"] != "black" and out["lit"] > 0  # the pass was rendered
+    assert (out["rt"], out["gi"], out["n"]) == (True, True, 7)
