@@ -29,6 +29,28 @@ def diffuse_material(name: str, rgb):
     return m
 
 
+def wavy_floor(rgb, levels: int, height: float, width: float, speed: float, size: float = 8.0):
+    """A floor plane subdivided ``levels`` times with a Wave modifier (a deforming mesh; speed 0: still)."""
+    bpy.ops.mesh.primitive_plane_add(size=size)
+    floor = bpy.context.object
+    floor.data.materials.append(diffuse_material("floor", rgb))
+    sub = floor.modifiers.new("sub", "SUBSURF")
+    sub.subdivision_type, sub.levels, sub.render_levels = "SIMPLE", levels, levels
+    wave = floor.modifiers.new("wave", "WAVE")
+    wave.height, wave.width, wave.speed = height, width, speed
+    return floor
+
+
+def point_lamp(scene, energy: float, radius: float, location):
+    """A point lamp object linked into ``scene``."""
+    li = bpy.data.lights.new("lamp", "POINT")
+    li.energy, li.shadow_soft_size = energy, radius
+    lo = bpy.data.objects.new("lamp", li)
+    lo.location = location
+    scene.collection.objects.link(lo)
+    return lo
+
+
 def build_shot(size=(160, 90), frames: int = 24, samples: int = 8):
     """The default shot: an open-front room (floor with a Wave ripple, back and side walls), a red cube that
     crosses it, a point lamp; the camera dollies 1.4 m sideways and 0.6 m in while panning 10 degrees.
@@ -41,13 +63,7 @@ def build_shot(size=(160, 90), frames: int = 24, samples: int = 8):
     sc.eevee.taa_render_samples = samples
     sc.eevee.use_raytracing = True
     sc.eevee.use_fast_gi = True
-    bpy.ops.mesh.primitive_plane_add(size=8)
-    floor = bpy.context.object
-    floor.data.materials.append(diffuse_material("floor", (0.8, 0.7, 0.5)))
-    sub = floor.modifiers.new("sub", "SUBSURF")
-    sub.subdivision_type, sub.levels, sub.render_levels = "SIMPLE", 6, 6
-    wave = floor.modifiers.new("wave", "WAVE")
-    wave.height, wave.width, wave.speed = 0.12, 1.2, 0.15
+    wavy_floor((0.8, 0.7, 0.5), 6, 0.12, 1.2, 0.15)
     for name, loc, rot, rgb in (("back", (0, 3, 2), (math.radians(90), 0, 0), (0.3, 0.5, 0.8)),
                                 ("left", (-3.5, 0, 2), (0, math.radians(90), 0), (0.8, 0.8, 0.8)),
                                 ("right", (3.5, 0, 2), (0, math.radians(90), 0), (0.2, 0.7, 0.3))):
@@ -58,11 +74,7 @@ def build_shot(size=(160, 90), frames: int = 24, samples: int = 8):
     cube.data.materials.append(diffuse_material("cube", (0.9, 0.2, 0.1)))
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6, location=(1.2, 1.2, 0.6))
     bpy.context.object.data.materials.append(diffuse_material("sphere", (0.9, 0.9, 0.9)))
-    li = bpy.data.lights.new("lamp", "POINT")
-    li.energy, li.shadow_soft_size = 600, 0.15
-    lo = bpy.data.objects.new("lamp", li)
-    lo.location = (1.5, -1.0, 3.5)
-    sc.collection.objects.link(lo)
+    point_lamp(sc, 600, 0.15, (1.5, -1.0, 3.5))
     cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
     sc.collection.objects.link(cam)
     sc.camera = cam

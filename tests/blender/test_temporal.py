@@ -21,7 +21,8 @@ SCENE = r'''
 import math, sys
 import bpy
 
-from ssgi.ssgi_addon.blender.temporal_shot import diffuse_material as mat, linear_keys as linear
+from ssgi.ssgi_addon.blender.temporal_shot import (diffuse_material as mat, linear_keys as linear, point_lamp,
+                                                   wavy_floor)
 
 def build(still=False, cut_at=None):
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -29,23 +30,13 @@ def build(still=False, cut_at=None):
     sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 64, 36, 100
     sc.frame_start, sc.frame_end = 1, 3
     sc.eevee.taa_render_samples = 1
-    bpy.ops.mesh.primitive_plane_add(size=8)
-    floor = bpy.context.object
-    floor.data.materials.append(mat("floor", (0.8, 0.7, 0.5)))
-    sub = floor.modifiers.new("sub", "SUBSURF")
-    sub.subdivision_type, sub.levels, sub.render_levels = "SIMPLE", 5, 5
-    wave = floor.modifiers.new("wave", "WAVE")
-    wave.height, wave.width, wave.speed = 0.15, 1.0, 0.0 if still else 0.25
+    wavy_floor((0.8, 0.7, 0.5), 5, 0.15, 1.0, 0.0 if still else 0.25)
     bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 3, 2), rotation=(math.radians(90), 0, 0))
     bpy.context.object.data.materials.append(mat("wall", (0.3, 0.5, 0.8)))
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-1, 0, 0.6))
     cube = bpy.context.object
     cube.data.materials.append(mat("cube", (0.9, 0.2, 0.1)))
-    li = bpy.data.lights.new("lamp", "POINT")
-    li.energy, li.shadow_soft_size = 800, 0.2
-    lo = bpy.data.objects.new("lamp", li)
-    lo.location = (2, -2, 4)
-    sc.collection.objects.link(lo)
+    point_lamp(sc, 800, 0.2, (2, -2, 4))
     cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
     sc.collection.objects.link(cam)
     sc.camera = cam
