@@ -83,3 +83,20 @@ def test_the_world_pass_alone_puts_the_artists_settings_back():
     out = json.loads(run_py(code, timeout=300).stdout.split("JSON", 1)[1])
     assert out["world"] != "black" and out["lit"] > 0  # the pass was rendered
     assert (out["rt"], out["gi"], out["n"]) == (True, True, 7)
+
+
+def test_eevee_gi_of_the_report_lights_a_lamp_lit_room_without_a_gbuffer_render_before():
+    code = """
+    import json
+    import bpy, numpy as np
+    from ssgi.ssgi_addon.blender import passes, room
+    from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = room.build_room(3, bpy.context.scene)     # a closed diffuse room lit by lamps
+    passes.set_resolution(scene, 32, 18)
+    gi = render_eevee_gi(scene, "default", 1)           # first: nothing set up by another render
+    d = passes.render_gbuffer(scene, ("albedo", "direct", "normal", "depth"))
+    print("JSON" + json.dumps(dict(gi=float(gi.mean()), lit=float((d["albedo"] * d["direct"]).mean()))))
+    """
+    out = json.loads(run_py(code, timeout=300).stdout.split("JSON", 1)[1])
+    assert out["lit"] > 0.01 and out["gi"] > 0.8 * out["lit"]  # GI adds bounce light to the lamps' direct light
