@@ -258,11 +258,11 @@ def test_preview_writes_a_contact_sheet(baked, tmp_path):
     res = json.loads(run_cli("preview", str(d), "--out", str(out), "--json").stdout)
     assert res["samples"] == 2
     im = np.asarray(Image.open(out).convert("RGB"))
-    # albedo normal depth direct ao world emission direct_soft emit_direct eevee ref_diffuse ref
-    assert im.shape == (14 + 2 * 36, 12 * 64, 3)
+    # albedo normal depth direct ao world emission direct_soft emit_direct surround eevee ref_diffuse ref
+    assert im.shape == (14 + 2 * 36, 13 * 64, 3)
     g = exrio.read_sample(d / "000001.exr")
-    np.testing.assert_array_equal(im[14 + 36:, 11 * 64:], images.srgb8(g["ref"]))  # last column: the reference
-    np.testing.assert_array_equal(im[14 + 36:, 10 * 64:11 * 64], images.srgb8(g["ref_diffuse"]))
+    np.testing.assert_array_equal(im[14 + 36:, 12 * 64:], images.srgb8(g["ref"]))  # last column: the reference
+    np.testing.assert_array_equal(im[14 + 36:, 11 * 64:12 * 64], images.srgb8(g["ref_diffuse"]))
     np.testing.assert_array_equal(im[14 + 36:, 5 * 64:6 * 64], images.srgb8(g["world"]))
     np.testing.assert_array_equal(im[14 + 36:, 3 * 64:4 * 64], images.srgb8(g["direct"]))
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]

@@ -253,7 +253,8 @@ def test_cancel_keeps_the_frames_already_written(room, rendered):
     c = rendered["cancel"]
     assert c["cancelled"] is True and c["frames"] == [1]
     files = sorted(p.name for p in (room["dir"] / "cancel").iterdir())
-    assert files == ["c_0001.exr"]  # no frame 2/3, no temporary file left
+    # no frame 2/3, no temporary file left; the temporal mode's history stays for a resume (hidden folder)
+    assert [f for f in files if f != ".ssgi_history"] == ["c_0001.exr"]
     assert read_rgba(room["dir"] / "cancel" / "c_0001.exr").shape == (31, 50, 4)
 
 
@@ -359,7 +360,7 @@ json.dump({{"type": n.bl_idname, "tree": n.node_tree.name, "model": n.get("ssgi_
 
 def test_cli_renders_three_frames_each_its_own_prediction(room, tmp_path):
     p = run_cli("render", "--blend", str(room["blend"]), "--out", str(tmp_path / "anim_####"), "--frames", "1-3",
-                "--save-passes", str(tmp_path / "passes"), "--json", timeout=600)
+                "--save-passes", str(tmp_path / "passes"), "--temporal", "off", "--json", timeout=600)
     summary = json.loads(p.stdout)
     files = [tmp_path / f"anim_{f:04d}.exr" for f in (1, 2, 3)]
     assert summary["files"] == [str(f) for f in files]
@@ -463,6 +464,7 @@ json.dump({{"panel_ops": sorted(set(o for o, _ in rec.operators())), "panel_prop
 ssgi.unregister()
 assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_model")
 assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_working_res")
+assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_temporal")
 assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
 ''', timeout=300)
     r = json.loads(res.read_text())
@@ -472,7 +474,8 @@ assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
     assert r["n"] == 5
     assert r["passes"] == [True, True, True, True] and r["ao"] is False
     assert r["add_menu"] and r["render_menu"] and r["handler"]
-    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model", "ssgi_working_res"]
+    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model", "ssgi_working_res",
+                                                                                          "ssgi_temporal"]
 
 
 # ---------------------------------------------------------------- ops.TimerSteps: the modal loop of Bake and Render SSGI
