@@ -65,6 +65,9 @@ def test_normalisation_commutes_with_the_mirror(g, spec):
     mirroring with normalize.flip_x: the flip augmentation is the same scene seen in a mirror."""
     m = {k: v[:, ::-1].copy() for k, v in g.items()}
     m["normal"][..., 0] *= -1
+    if "surround" in m:  # in a mirror, what was on the camera's right is on its left
+        comps = ch.SURROUND_COMPONENTS
+        m["surround"] = m["surround"][..., [comps.index({"R": "L", "L": "R"}.get(c[0], c[0]) + c[1:]) for c in comps]]
     a = normalize.flip_x(normalize.to_inputs(g, spec)[0], spec)
     b = normalize.to_inputs(m, spec)[0]
     np.testing.assert_array_equal(a, b)
