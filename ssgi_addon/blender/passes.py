@@ -71,6 +71,12 @@ def configure_gbuffer(scene, groups=None, samples: int = 1) -> None:
         flag = ch.GROUPS[g].blender_pass
         if flag:
             setattr(vl, flag, True)
+    no_light_culled(scene)
+
+
+def no_light_culled(scene) -> None:
+    """Every lamp a custom cutoff distance of CUTOFF_DISTANCE: with light threshold 0 and none, EEVEE culls every
+    lamp (persistent settings of ``scene``)."""
     for li in {o.data for o in scene.objects if o.type == "LIGHT"}:
         li.use_custom_distance = True
         li.cutoff_distance = CUTOFF_DISTANCE

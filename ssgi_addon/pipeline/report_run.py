@@ -125,10 +125,9 @@ def render_eevee_gi(scene, preset: str, samples: int) -> np.ndarray:
     ee.fast_gi_method = "GLOBAL_ILLUMINATION"
     ee.taa_render_samples = int(samples)
     ee.light_threshold = 0.0  # as in the G-buffer: no light is culled, only the GI differs ...
-    for li in {o.data for o in scene.objects if o.type == "LIGHT"}:
-        # ... which needs a custom cutoff distance: with threshold 0 and none, EEVEE culls every light (a closed
-        # room lit by one point light rendered nearly black here until a G-buffer render left these set)
-        li.use_custom_distance, li.cutoff_distance = True, passes.CUTOFF_DISTANCE
+    # ... which needs the lamps' custom cutoff distances (a closed room lit by one point light rendered black here
+    # until a G-buffer render left them set)
+    passes.no_light_culled(scene)
     for k, v in GI_PRESETS[preset]["settings"].items():
         _set(ee, k, v)
     p = passes._render(scene)["Combined"]
