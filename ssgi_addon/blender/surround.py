@@ -65,21 +65,27 @@ def _depsgraph(scene):
     return dg
 
 
-def probe(scene, camera=None) -> np.ndarray:
-    """The surround group's 12 values for ``scene`` seen from ``camera`` (default the scene's camera)."""
+def hit_distances(scene, dirs: np.ndarray, camera=None) -> np.ndarray:
+    """Distance from ``camera`` (default the scene's) to the first hit along each camera-space direction of
+    ``dirs`` (n x 3), inf where nothing is hit within the camera's clip end."""
     cam = camera or scene.camera
     dg = _depsgraph(scene)
     mw = cam.evaluated_get(dg).matrix_world
     origin = mw.to_translation()
     rot = mw.to_quaternion().to_matrix()
     far = float(cam.data.clip_end)
-    dirs = directions()
     dist = np.full(len(dirs), np.inf)
     for i, d in enumerate(dirs):
         hit, loc, *_ = scene.ray_cast(dg, origin, rot @ Vector(d), distance=far)
         if hit:
             dist[i] = (loc - origin).length
-    return features(dist, dirs)
+    return dist
+
+
+def probe(scene, camera=None) -> np.ndarray:
+    """The surround group's 12 values for ``scene`` seen from ``camera`` (default the scene's camera)."""
+    dirs = directions()
+    return features(hit_distances(scene, dirs, camera), dirs)
 
 
 def render_surround(scene, camera=None) -> np.ndarray:
