@@ -37,6 +37,23 @@ def test_box_reduce_averages_only_the_real_pixels_of_a_partial_border_block():
     assert r[2, 1] == pytest.approx(14.0)  # the corner block holds one pixel
 
 
+@pytest.mark.parametrize("f", [2, 3, 4])
+def test_the_fast_reduction_gives_the_bits_of_the_plain_numpy_one(f):
+    """_block_sum adds slices and representative_index sorts (both faster); the result must be the bits of
+    sum(axis=...) and of np.median, also for blocks of ties and of samples where nothing was hit (inf)."""
+    rng = np.random.default_rng(f)
+    a = (rng.exponential(1, (48, 96, 3)) * rng.choice([1e-3, 1, 1e3], (48, 96, 1))).astype(np.float32)
+    plain = a.reshape(48 // f, f, 96 * 3).sum(axis=1, dtype=np.float32).reshape(48 // f, 96 // f, f, 3).sum(axis=2, dtype=np.float32)
+    assert np.array_equal(wr._block_sum(a, f), plain)
+    z = np.round(rng.uniform(1, 10, (55, 97, 1)) * 2).astype(np.float32) / 2  # many ties
+    z[rng.random((55, 97)) < 0.3] = np.inf
+    z[:12, :12] = np.inf  # whole blocks of sky
+    zb = wr._blocks(wr._pad_mult(np.nan_to_num(z[..., 0], posinf=np.float32(3e38)), f), f)
+    with np.errstate(over="ignore"):
+        want = np.argmin(np.abs(zb - np.median(zb, axis=-1, keepdims=True)), axis=-1)
+    assert np.array_equal(wr.representative_index(z, f), want)
+
+
 def test_depth_and_normal_are_not_averaged_across_a_silhouette_but_taken_from_one_real_pixel():
     # a 4x4 block: 11 pixels of a wall at depth 2 facing +z, 5 of a box edge at depth 9 facing +x
     z = np.full((4, 4, 1), 2.0, np.float32)
