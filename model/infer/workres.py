@@ -109,15 +109,15 @@ def _block_sum(a: np.ndarray, f: int) -> np.ndarray:
     which numpy runs as a strided inner loop; the same additions in the same order, so the same bits)."""
     Hp, Wp, C = a.shape
     h, w = Hp // f, Wp // f
-    r = np.asarray(a, np.float32).reshape(h, f, Wp * C)
-    rows = r[:, 0].copy()
-    for k in range(1, f):
-        rows += r[:, k]
-    c = rows.reshape(h, w, f, C)
-    out = c[:, :, 0].copy()
-    for k in range(1, f):
-        out += c[:, :, k]
-    return out
+
+    def add_middle(v):  # n x f x m -> n x m: the f slices added in order
+        out = v[:, 0].copy()
+        for k in range(1, v.shape[1]):
+            out += v[:, k]
+        return out
+
+    rows = add_middle(np.asarray(a, np.float32).reshape(h, f, Wp * C))
+    return add_middle(rows.reshape(h * w, f, C)).reshape(h, w, C)
 
 
 def box_reduce(a: np.ndarray, f: int) -> np.ndarray:
