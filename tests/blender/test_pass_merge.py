@@ -100,3 +100,39 @@ def test_eevee_gi_of_the_report_lights_a_lamp_lit_room_without_a_gbuffer_render_
     """
     out = json.loads(run_py(code, timeout=300).stdout.split("JSON", 1)[1])
     assert out["lit"] > 0.01 and out["gi"] > 0.8 * out["lit"]  # GI adds bounce light to the lamps' direct light
+
+
+def test_the_rest_render_culls_no_lamp_and_puts_the_artists_threshold_back():
+    """The artist test set's studio (two softboxes) at Blender's default light threshold 0.01 and no cutoff
+    distances: EEVEE culls enough of the lamps' light that its own render is 16 % darker (320x180). The rest
+    render lights it as the G-buffer does (threshold 0, cutoff distances set): its Combined equals a render made
+    so by hand, is brighter than the artist-threshold render, and the artist's settings come back."""
+    code = """
+    import json, sys
+    import bpy, numpy as np
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import artist_scenes
+    from ssgi.ssgi_addon.blender import passes
+    scene = artist_scenes.build("studio", size=(64, 36))
+    scene.eevee.taa_render_samples = 1
+    lamps = [o.data for o in scene.objects if o.type == "LIGHT"]
+    before = (scene.eevee.light_threshold, [l.use_custom_distance for l in lamps])
+    rest, comb = passes.render_rest(scene)
+    after = (scene.eevee.light_threshold, [l.use_custom_distance for l in lamps])
+    def combined():
+        p = passes._render(scene)["Combined"]
+        return np.stack([p[c] for c in "RGB"], axis=-1)
+    own = combined()                                   # the scene as its own settings render it
+    scene.eevee.light_threshold = 0.0
+    passes.no_light_culled(scene)
+    unculled = combined()
+    print("JSON" + json.dumps(dict(before=before, after=after, rest=float(comb[..., :3].mean()), own=float(own.mean()),
+                                   unculled=float(unculled.mean()),
+                                   diff=float(np.abs(comb[..., :3] - unculled).max()))))
+    """
+    code = f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + __import__("textwrap").dedent(code)
+    out = json.loads(run_py(code, timeout=300).stdout.split("JSON", 1)[1])
+    assert abs(out["before"][0] - 0.01) < 1e-6 and not any(out["before"][1]), out  # the artist's defaults
+    assert out["after"] == out["before"], out                                    # put back
+    assert out["diff"] <= 1e-5, out                                              # lit with no lamp culled
+    assert out["own"] < 0.95 * out["rest"], out                                  # culling matters in this scene
