@@ -64,7 +64,6 @@ def configure_gbuffer(scene, groups=None, samples: int = 1) -> None:
     ee.taa_render_samples = int(samples)
     ee.use_raytracing = False
     ee.use_fast_gi = False
-    ee.light_threshold = 0.0
     ee.use_shadows = True
     vl = scene.view_layers[0]
     for g in groups:
@@ -75,8 +74,9 @@ def configure_gbuffer(scene, groups=None, samples: int = 1) -> None:
 
 
 def no_light_culled(scene) -> None:
-    """Every lamp a custom cutoff distance of CUTOFF_DISTANCE: with light threshold 0 and none, EEVEE culls every
-    lamp (persistent settings of ``scene``)."""
+    """Light threshold 0 and every lamp a custom cutoff distance of CUTOFF_DISTANCE: with threshold 0 and no
+    distance, EEVEE culls every lamp (persistent settings of ``scene``)."""
+    scene.eevee.light_threshold = 0.0
     for li in {o.data for o in scene.objects if o.type == "LIGHT"}:
         li.use_custom_distance = True
         li.cutoff_distance = CUTOFF_DISTANCE
@@ -410,7 +410,6 @@ def render_rest(scene, samples: int | None = None, groups=()):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
-        scene.eevee.light_threshold = 0.0
         no_light_culled(scene)
         vl = scene.view_layers[0]
         for f in REST_PASSES + tuple(ch.GROUPS[g].blender_pass for g in groups):

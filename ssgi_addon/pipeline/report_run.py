@@ -124,9 +124,8 @@ def render_eevee_gi(scene, preset: str, samples: int) -> np.ndarray:
     ee.use_fast_gi = True
     ee.fast_gi_method = "GLOBAL_ILLUMINATION"
     ee.taa_render_samples = int(samples)
-    ee.light_threshold = 0.0  # as in the G-buffer: no light is culled, only the GI differs ...
-    # ... which needs the lamps' custom cutoff distances (a closed room lit by one point light rendered black here
-    # until a G-buffer render left them set)
+    # as in the G-buffer: no light is culled, only the GI differs (threshold 0 needs the lamps' custom cutoff
+    # distances: a closed room lit by one point light rendered black here until a G-buffer render left them set)
     passes.no_light_culled(scene)
     for k, v in GI_PRESETS[preset]["settings"].items():
         _set(ee, k, v)
