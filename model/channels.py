@@ -93,6 +93,12 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "reflections, transmission (glass), volumes. Not a network input: the SSGI image of a model that "
           "predicts the diffuse part (target ref_diffuse) is prediction + rest (model/infer/compose.py).",
           render_pass=None),
+    Group("eevee_diffuse", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
+          "EEVEE's own diffuse light at the artist's settings with ray tracing and fast GI on: the Diffuse Direct "
+          "pass of the render that gives rest (EEVEE 5.0 puts all its diffuse light there: the lamps at their real "
+          "size with soft shadows, the world, the traced and fast-GI indirect light). The input of one-render models "
+          "(issue 15): every group they read comes from that one render (docs/one_render.md).",
+          render_pass="Diffuse Direct", drop_rank=None),
     Group("vector", ("X", "Y", "Z", "W"), "motion", "eevee", "use_pass_vector", "pixels",
           "EEVEE Vector pass (motion vectors): X, Y = the pixel's position in the PREVIOUS frame minus its position "
           "now, Z, W = its position now minus its position in the NEXT frame, in pixels, x right, y UP (measured: "
@@ -120,25 +126,29 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
               "over the geometry pixels, and the geometry fraction. Gives a small network the room's overall light "
               "level, which sets the indirect light everywhere (a per-image linear fit beat the global one by "
               "2.4 dB, docs/model.md). Computed on the full image, so crops and tiles see the same values."),
+    "scene_gi": (("albedo", "eevee_diffuse", "normal"), 7,
+                 "As 'scene', from EEVEE's own diffuse light instead of the hard direct light: mean "
+                 "log1p(albedo*eevee_diffuse) RGB and mean albedo RGB over the geometry pixels, and the geometry "
+                 "fraction (one-render models)."),
     "glow": (("emission",), 4,
              "Whole-image statistics of the emission pass broadcast to every pixel: mean log1p(emission) RGB over "
              "all pixels and the share of emissive pixels (emission > 0.01). Tells the network how much light the "
              "emitters on screen give off, wherever they are in the image."),
 }
 
-DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1}
+DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1, "scene_gi": 1}
 # derived groups that are whole-image statistics (normalised already), not light
-STAT_GROUPS: tuple[str, ...] = ("scene", "glow")
+STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "surround", "rest", "eevee", "ref_diffuse", "ref")
+                                  "emit_direct", "surround", "rest", "eevee_diffuse", "eevee", "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
 OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "rest",
-                                    "ref_diffuse")
+                                    "eevee_diffuse", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                 "emit_direct", "surround", "lit", "scene", "glow")
+                                 "emit_direct", "surround", "eevee_diffuse", "lit", "scene", "glow", "scene_gi")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 TARGETS: tuple[str, ...] = ("ref", "ref_diffuse")

@@ -47,7 +47,9 @@ def _act():
 
 
 # the input groups each head reads itself (fit never drops them)
-HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct")}
+HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
+              # one-render models (issue 15): the shading starts from EEVEE's own diffuse light, not the hard direct
+              "residual_gi": ("albedo", "eevee_diffuse")}
 
 class Head(nn.Module):
     def __init__(self, kind: str, spec: tuple[str, ...]):
@@ -61,13 +63,14 @@ class Head(nn.Module):
             raise UserError(f"head {kind!r} needs input group(s) {', '.join(missing)} in the input spec {','.join(spec)}")
         self.kind = kind
         self.alb = (lay["albedo"].start, lay["albedo"].stop) if "albedo" in lay else None
-        self.dir = (lay["direct"].start, lay["direct"].stop) if "direct" in lay else None
+        base = need[kind][1] if kind.startswith("residual") else "direct"
+        self.dir = (lay[base].start, lay[base].stop) if base in lay else None
 
     def forward(self, o: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
         if self.kind == "log":
             return o
         s = o
-        if self.kind == "residual":
+        if self.kind.startswith("residual"):
             s = s + x[:, self.dir[0]:self.dir[1]]
         s = torch.relu(s).clamp_max(LOG_MAX)
         albedo = x[:, self.alb[0]:self.alb[1]]

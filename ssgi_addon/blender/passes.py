@@ -35,7 +35,9 @@ from ...model.errors import UserError
 
 # group -> Blender render pass name (the channel spec's Group.render_pass)
 PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
-EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee")
+# (not eevee_diffuse: EEVEE's own diffuse light comes from the artist-settings render, REST_LIGHT_GROUPS)
+EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee"
+                                      and g != "eevee_diffuse")
 # what a bake renders by default: not the artist-settings render `rest` (the render path and the report render it)
 BAKE_EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in EEVEE_GROUPS if g != "rest")
 AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
@@ -389,7 +391,12 @@ last_sources: dict[str, str] = {}
 REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings_no_lamp_culled"
 
 
-def render_rest(scene, samples: int | None = None, groups=()):
+# groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
+# input of one-render models; issue 15, docs/one_render.md)
+REST_LIGHT_GROUPS = ("eevee_diffuse",)
+
+
+def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -401,15 +408,21 @@ def render_rest(scene, samples: int | None = None, groups=()):
     highlights and reflections the rest holds are lit by the same lamps as the predicted diffuse light. At the
     scene's own threshold (Blender's default 0.01) the artist test set's studio rendered 16 % darker (Combined
     mean 0.312 against 0.374; 95 % of the pixels differ by more than 0.01) and its gold sphere reflected a dim
-    floor (docs/artists.md). The settings it changes are put back."""
+    floor (docs/artists.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
+    pass, EEVEE's own diffuse light). With ``gi`` ray tracing and fast GI are switched on whatever the scene says
+    (their other settings stay the artist's): the one-render models were trained on EEVEE's diffuse light with
+    both on. The settings it changes are put back."""
     _check_camera(scene)
     for g in groups:
-        if g not in SHARED_GROUPS:
-            raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: {SHARED_GROUPS}")
+        if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + EXTRA_GROUPS:
+            raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: "
+                             f"{SHARED_GROUPS + REST_LIGHT_GROUPS + EXTRA_GROUPS}")
     with _settings_kept(scene):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
+        if gi:
+            scene.eevee.use_raytracing = scene.eevee.use_fast_gi = True
         no_light_culled(scene)
         vl = scene.view_layers[0]
         for f in REST_PASSES + tuple(ch.GROUPS[g].blender_pass for g in groups):
@@ -419,10 +432,11 @@ def render_rest(scene, samples: int | None = None, groups=()):
         last_timings["rest"] = time.perf_counter() - t0
     comb = passes["Combined"]
     combined = np.stack([comb[c] for c in "RGBA"], axis=-1).astype(np.float32)
-    rest = combined[..., :3] - _rgb(passes, "Diffuse Color") * _rgb(passes, "Diffuse Direct")
+    light = _rgb(passes, "Diffuse Direct")
+    rest = combined[..., :3] - _rgb(passes, "Diffuse Color") * light
     if not groups:
         return rest.astype(np.float32), combined
-    return rest.astype(np.float32), combined, {g: _group(passes, g) for g in groups}
+    return rest.astype(np.float32), combined, {g: light if g == "eevee_diffuse" else _group(passes, g) for g in groups}
 
 
 # The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
@@ -435,12 +449,12 @@ OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct", "surround")  # surro
 # the extras the render path asks for: "vector" (EEVEE's motion vectors, from the direct-only raster render; the
 # temporal mode)
 EXTRA_GROUPS: tuple[str, ...] = ("vector",)
-INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround") + EXTRA_GROUPS
+INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround") + EXTRA_GROUPS + REST_LIGHT_GROUPS
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
-                   raster_samples: int | None = None) -> dict[str, np.ndarray]:
+                   raster_samples: int | None = None, shared_from_rest: bool | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -451,7 +465,11 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     render (bit-identical; docs/pass_cost.md), and the direct-only render is made only for what is left
     (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``; 1 changes ``direct`` on edges
     and was measured, not made the default: docs/pass_cost.md). ``last_timings`` holds each render's seconds,
-    ``last_sources`` which render each group came from. The scene's render settings are put back."""
+    ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
+    from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
+    for it, the SHARED_GROUPS come from that render whatever the samples (``shared_from_rest``, default: when
+    ``eevee_diffuse`` is asked), so that a one-render model's every input is of that one render
+    (docs/one_render.md). The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -462,9 +480,15 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_timings.clear()
     last_sources.clear()
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
-    shared = tuple(g for g in groups if g in SHARED_GROUPS) if merge and "rest" in groups and rest_at == int(samples) \
-        else ()
-    raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",) + shared)
+    gi = "eevee_diffuse" in groups
+    with_rest = "rest" in groups or gi
+    from_rest = gi if shared_from_rest is None else shared_from_rest
+    # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
+    # on the lighting)
+    shared = tuple(g for g in groups if g in SHARED_GROUPS + (EXTRA_GROUPS if gi else ())) \
+        if merge and with_rest and (rest_at == int(samples) or from_rest) else ()
+    rest_groups = shared + tuple(g for g in groups if g in REST_LIGHT_GROUPS)
+    raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",) + rest_groups)
     out = {}
 
     def timed(key, fn, *a, **kw):
@@ -488,13 +512,13 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
             with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
-    if "rest" in groups:
-        made = render_rest(scene, rest_samples, groups=shared)
+    if with_rest:
+        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi)
         out["rest"], out["beauty"] = made[:2]
-        if shared:
+        if rest_groups:
             out.update(made[2])
     out = {g: out[g] for g in groups} | ({"beauty": out["beauty"]} if "beauty" in out else {})
-    last_sources.update({g: "rest" if g in shared + ("rest",) else "raster" if g in raster else g for g in groups})
+    last_sources.update({g: "rest" if g in rest_groups + ("rest",) else "raster" if g in raster else g for g in groups})
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
     return out

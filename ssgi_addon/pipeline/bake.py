@@ -29,12 +29,29 @@ CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
 # what a new folder's samples hold: every input group and both references, not the artist-settings render rest
 # (nor the render path's extras: the motion vectors are not a network input)
 BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS if g not in ("rest",) + passes.EXTRA_GROUPS)
-BAKE_GROUPS = BAKE_INPUT_GROUPS + CYCLES_SAMPLE_GROUPS
+BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_GROUPS) + CYCLES_SAMPLE_GROUPS
+# a one-render bake (--gi-samples N; issue 15, docs/one_render.md): what one-render models read, all of it from
+# the artist-settings render at N samples with ray tracing and fast GI on (eevee_diffuse, albedo, normal, depth,
+# emission) and the image composed from it (rest); surround (ray casts); the 1-sample direct-only raster's
+# direct, ao and eevee (groups every sample holds; cheap); the references. No world, direct_soft, emit_direct:
+# those three renders are what a one-render model does without.
+ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission", "eevee", "surround",
+                          "eevee_diffuse", "rest") + CYCLES_SAMPLE_GROUPS
 ROOM_MODES = room.MODES
 
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
-              ref_target_db=None, mode="diffuse"):
+              ref_target_db=None, mode="diffuse", gi_samples=0):
+    s = _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, scenes, frames, ref_target_db,
+                       mode)
+    if gi_samples:
+        s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": True, "fast_gi": True,
+                                    "groups_from_it": ["eevee_diffuse", "rest", *passes.SHARED_GROUPS],
+                                    "rest": passes.REST_MODE}
+    return s
+
+
+def _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, scenes, frames, ref_target_db, mode):
     return ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
                     ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames, room_mode=mode,
                     eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
@@ -52,11 +69,12 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
 
 def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0,
                   keep_sky: bool = True, eevee_groups=None, cycles_groups=("ref",),
-                  ref_target_db: float | None = None) -> tuple[dict, dict, dict]:
-    """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds, reference info)."""
+                  ref_target_db: float | None = None, gi_samples: int = 0) -> tuple[dict, dict, dict]:
+    """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds, reference info). ``gi_samples``:
+    the samples of the artist-settings render that gives eevee_diffuse and rest (a one-render bake)."""
     t0 = time.perf_counter()
     groups = passes.render_gbuffer(scene, BAKE_INPUT_GROUPS if eevee_groups is None else eevee_groups,
-                                   samples=eevee_samples, keep_sky=keep_sky)
+                                   samples=eevee_samples, keep_sky=keep_sky, rest_samples=gi_samples or None)
     groups.pop("beauty", None)
     t1 = time.perf_counter()
     refs, ref_info = render_references(scene, ref_samples, ref_target_db, seed=ref_seed, denoise=denoise,
@@ -124,7 +142,7 @@ def _complete(out, name, manifest) -> bool:
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
               shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
-              mode: str = "diffuse"):
+              mode: str = "diffuse", gi_samples: int = 0):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -144,15 +162,16 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     out = Path(out)
     if scenes:
         settings = _settings("scenes", (w, h), ref_samples, denoise, eevee_samples, scenes=scenes,
-                             frames=list(frames) if frames else None, ref_target_db=target)
+                             frames=list(frames) if frames else None, ref_target_db=target, gi_samples=gi_samples)
     else:
         settings = _settings("rooms", (w, h), ref_samples, denoise, eevee_samples, first_seed=seed,
-                             ref_target_db=target, mode=mode)
+                             ref_target_db=target, mode=mode, gi_samples=gi_samples)
     # list the jobs first: an unreadable .blend or a scene without a camera stops before the folder is touched
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
-    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard, groups=BAKE_GROUPS)
+    manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
+                                 groups=ONE_RENDER_BAKE_GROUPS if gi_samples else BAKE_GROUPS)
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
@@ -160,7 +179,8 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     keep_sky = manifest["settings"].get("eevee", {}).get("world") != "black"
     # ... and a folder begun before a group existed (`world`; `emission`, `direct_soft`, `ref_diffuse`) goes on
     # without it
-    eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in BAKE_INPUT_GROUPS)
+    eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in BAKE_INPUT_GROUPS + ("rest",))
+    gi_samples = int(manifest["settings"].get("eevee", {}).get("one_render", {}).get("gi_samples", 0))
     cycles_groups = tuple(g for g in ds.stored_groups(manifest) if g in CYCLES_SAMPLE_GROUPS)
 
     def owned(final_name):
@@ -197,7 +217,7 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
             groups, timings, ref_info = render_sample(scene, ref_samples, denoise, eevee_samples,
                                                       ref_seed=info["seed"], keep_sky=keep_sky,
                                                       eevee_groups=eevee_groups, cycles_groups=cycles_groups,
-                                                      ref_target_db=target)
+                                                      ref_target_db=target, gi_samples=gi_samples)
             exrio.write_sample(ds.sample_path(out, name), groups, half=settings["half"],
                                header={"ssgi_seed": info["seed"], "ssgi_scene": info["scene"]})
             manifest["samples"][name] = dict(info, timings=timings, reference=ref_info)
@@ -235,6 +255,7 @@ class BakeConfig:
     scenes: list | None = None  # bake these .blend files' cameras instead of rooms
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
+    gi_samples: int = 0  # > 0: a one-render bake, its artist-settings render at this many samples (docs/one_render.md)
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
@@ -250,7 +271,8 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     cfg.check()
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
-                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode)
+                    frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode,
+                    gi_samples=cfg.gi_samples)
     start = next(gen)
     if on_start:
         on_start(start)

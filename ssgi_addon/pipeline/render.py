@@ -170,7 +170,10 @@ class RenderSession:
         self.label = node_label(findings)
         for w in self.warnings:
             log(f"warning: {w}")
-        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal", "eevee")
+        # (EEVEE's direct-lit Combined `eevee` only for a whole-image model, whose composition reads it: a
+        # one-render model's every group comes from the artist-settings render, docs/one_render.md)
+        self.groups = tuple(dict.fromkeys(ch.required_groups(self.spec) + ("depth", "normal")
+                                          + (("eevee",) if self.target == ch.TARGET_GROUP else ())
                                           + needs(self.target)))
         self.out = out
         self.write = write

@@ -51,6 +51,11 @@ LADDER_SEED = 7919  # Cycles seed of the ladder renders: not a seed the baker us
 REF_SEED_OFFSET = 104729  # the re-rendered reference uses the target's seed + this
 
 
+def _one_render(pred) -> bool:
+    """A one-render model (docs/one_render.md): it reads EEVEE's own diffuse light from the artist-settings render."""
+    return "eevee_diffuse" in ch.required_groups(tuple(pred.spec))
+
+
 def _needs_world(pred) -> bool:
     return "world" in ch.required_groups(tuple(pred.spec))
 
@@ -160,7 +165,8 @@ class ReportRun:
         self._extra = tuple(e for e in EXTRA_GROUPS if any(e in ch.required_groups(tuple(p.spec)) for _, p in models))
         self._steps = 0
         self._t0 = time.perf_counter()
-        n_ssgi = 1 if any(_diffuse(p) for _, p in models) else 0
+        n_ssgi = (1 if any(_diffuse(p) and not _one_render(p) for _, p in models) else 0) + \
+            (1 if any(_one_render(p) for _, p in models) else 0)
         self.total_steps = (len(scenes) * (2 + n_ssgi + len(models) + len(GI_PRESETS) + 2 * len(settings.spp))
                             + settings.reference_scenes)
 
@@ -217,6 +223,9 @@ class ReportRun:
         for k in GI_PRESETS:
             render_eevee_gi(scene, k, 1)
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
+        if any(_one_render(p) for _, p in self._model_keys.values()):
+            g["rest"], _b, more = passes.render_rest(scene, 1, groups=("eevee_diffuse",), gi=True)
+            g.update(more)
         for _, pred in self._model_keys.values():
             pred.predict(g)
         if any(_diffuse(p) for _, p in self._model_keys.values()):
@@ -269,15 +278,24 @@ class ReportRun:
         self._score("eevee_direct", name, g["eevee"][..., :3], ref, mask,
                     dict(gbuffer_s=t_g, whole_s=t_g, own_s=t_g))
         gd, t_gd, t_wd, t_xd, t_rest = None, 0.0, 0.0, {}, 0.0
-        if any(_diffuse(p) for _, p in self._model_keys.values()):
+        if any(_diffuse(p) and not _one_render(p) for _, p in self._model_keys.values()):
             # the SSGI path of a diffuse-part model: its G-buffer and EEVEE's own other components at the same
             # samples (their anti-aliasing must agree), as the render path renders them
             gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
             t_gd, t_wd, t_xd = es.t_raster, es.t_world, dict(es.t_extra)
             (gd["rest"], _beauty), t_rest = _timed(passes.render_rest, scene, s.ssgi_samples)
             self._step(f"{name}: SSGI passes at {s.ssgi_samples} samples: G-buffer {t_gd:.2f} s, rest {t_rest:.2f} s")
+        g1, t_one = None, 0.0
+        if any(_one_render(p) for _, p in self._model_keys.values()):
+            # a one-render model's every group from one render: the artist-settings render with ray tracing and
+            # fast GI on (passes.render_gbuffer asked for eevee_diffuse), as the render path makes it
+            want = tuple(dict.fromkeys(g for _, p in self._model_keys.items() if _one_render(p[1])
+                                       for g in ch.required_groups(tuple(p[1].spec)) + ("depth", "normal", "rest")))
+            g1, t_one = _timed(passes.render_gbuffer, scene, want, samples=s.ssgi_samples,
+                               rest_samples=s.ssgi_samples)
+            self._step(f"{name}: one-render passes at {s.ssgi_samples} samples {t_one:.2f} s")
         for key, (path, pred) in self._model_keys.items():
-            gg = gd if _diffuse(pred) else g
+            gg = g1 if _one_render(pred) else gd if _diffuse(pred) else g
             ts, img = [], None
             for _ in range(max(1, s.predict_repeats)):
                 img, t = _timed(pred.predict, gg)
@@ -287,7 +305,10 @@ class ReportRun:
             extra = sum(t for e, t in (t_xd if d else t_x).items() if e in ch.required_groups(tuple(pred.spec)))
             world_s = (t_wd if d else t_w) if _needs_world(pred) else 0.0
             times = dict(gbuffer_s=(t_gd if d else t_g) + world_s + extra, predict_s=t_p)
-            if _diffuse(pred):
+            if _one_render(pred):  # one render gives every group and the rest
+                times = dict(gbuffer_s=0.0, predict_s=t_p, rest_s=t_one)
+                img = compose(img, gg, pred.target)
+            elif _diffuse(pred):
                 img = compose(img, gg, pred.target)
                 times["rest_s"] = t_rest
             times.update(whole_s=sum(times.values()), own_s=t_p)
@@ -373,8 +394,13 @@ class ReportRun:
             if any(_diffuse(p) for _, p in self._model_keys.values()):
                 gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
                 gd["rest"] = passes.render_rest(scene, s.ssgi_samples)[0]
+            if any(_one_render(p) for _, p in self._model_keys.values()):
+                gd = dict(gd or {})
+                gd["rest_gi"], _b, more = passes.render_rest(scene, s.ssgi_samples, groups=("eevee_diffuse",), gi=True)
+                gd.update(more)
             for key, (path, pred) in self._model_keys.items():
-                img = compose(pred.predict(gd), gd, pred.target) if _diffuse(pred) else pred.predict(g)
+                gp = dict(gd, rest=gd["rest_gi"]) if _one_render(pred) else gd
+                img = compose(pred.predict(gp), gp, pred.target) if _diffuse(pred) else pred.predict(g)
                 seqs.setdefault(self.raw["methods"][key]["label"], []).append(img)
             if rung is not None:
                 img = passes.render_cycles(scene, rung[0], seed=LADDER_SEED, denoise=True)["ref"]

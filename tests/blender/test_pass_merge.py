@@ -10,7 +10,8 @@ import json
 
 from ..conftest import ROOT, run_py
 
-CODE = r'''
+# the tiny scene under a gradient sky (also tests/blender/test_one_render.py)
+TINY_SKY_SCENE = r'''
 import json, sys
 import numpy as np
 import bpy
@@ -22,6 +23,9 @@ bpy.ops.wm.read_factory_settings(use_empty=True)
 sc = bpy.context.scene
 artist_scenes.tiny_material_scene(sc)
 artist_scenes.world_gradient(sc, (0.1, 0.09, 0.08), (0.6, 0.7, 0.8), (0.2, 0.35, 0.8), strength=1.0)
+'''
+
+CODE = TINY_SKY_SCENE + r'''
 groups = ("albedo", "normal", "depth", "direct", "emission", "world", "eevee", "rest")
 res = {}
 runs = {"separate": dict(merge=False), "merged": dict(merge=True)}

@@ -1,0 +1,80 @@
+"""Issue 15, item 4 (bpy-free): one-render models read EEVEE's own diffuse light (``eevee_diffuse``), its
+whole-image statistics (``scene_gi``) and a shading head that starts from it (``residual_gi``)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ssgi.model import channels as ch, normalize
+from ssgi.model.errors import UserError
+
+SPEC = ("albedo", "normal", "depth", "emission", "eevee_diffuse", "scene_gi", "glow", "surround")
+
+
+def _groups(h=8, w=12, seed=0):
+    r = np.random.default_rng(seed)
+    n = r.normal(size=(h, w, 3)).astype(np.float32)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    n[0, :3] = 0  # sky pixels: no normal
+    return {"albedo": r.uniform(0.05, 0.9, (h, w, 3)).astype(np.float32), "normal": n,
+            "depth": r.uniform(1, 5, (h, w, 1)).astype(np.float32),
+            "emission": np.zeros((h, w, 3), np.float32),
+            "eevee_diffuse": r.uniform(0, 3, (h, w, 3)).astype(np.float32),
+            "direct": r.uniform(0, 3, (h, w, 3)).astype(np.float32),
+            "surround": np.broadcast_to(r.uniform(0, 1, 12).astype(np.float32), (h, w, 12)).copy()}
+
+
+def test_scene_gi_is_scene_computed_from_eevees_own_diffuse_light_and_commutes_with_the_flip():
+    g = _groups()
+    gi = normalize.derived("scene_gi", g)
+    # the same statistics as "scene" with the direct light replaced by EEVEE's own diffuse light
+    same = normalize.derived("scene", dict(g, direct=g["eevee_diffuse"]))
+    assert gi.shape == (8, 12, 7) and np.array_equal(gi, same)
+    assert not np.allclose(gi, normalize.derived("scene", g))  # not the direct light's
+    flipped = {k: v[:, ::-1] for k, v in g.items()}
+    assert np.array_equal(normalize.derived("scene_gi", flipped), gi)
+    assert ch.required_groups(("scene_gi",)) == ("albedo", "eevee_diffuse", "normal")
+    assert ch.input_channels(SPEC) == 3 + 3 + 1 + 3 + 3 + 7 + 4 + 12
+    x, _ = normalize.to_inputs(g, SPEC)
+    lay = normalize.layout(SPEC)
+    assert np.allclose(x[..., lay["eevee_diffuse"]], np.log1p(g["eevee_diffuse"]))  # a light group: log1p
+
+
+def test_the_residual_gi_head_starts_from_eevees_own_diffuse_light_and_needs_it():
+    import torch
+
+    from ssgi.model.learn import network
+
+    net = network.build(network.arch_for("unet_s_gi", ",".join(SPEC), target="ref_diffuse"))
+    last = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+    with torch.no_grad():  # the network's own output 0: the head alone
+        last.weight.zero_()
+        last.bias.zero_()
+    g = _groups(16, 16)
+    x, _ = normalize.to_inputs(g, SPEC)
+    with torch.no_grad():
+        y = net(torch.from_numpy(x).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy()
+    # log1p(albedo x EEVEE's diffuse light): the diffuse part as EEVEE renders it
+    assert np.allclose(np.expm1(y), g["albedo"] * g["eevee_diffuse"], rtol=1e-4, atol=1e-5)
+    with pytest.raises(UserError, match="eevee_diffuse"):
+        network.build(network.arch_for("unet_s_gi", "albedo,normal,depth,direct", target="ref_diffuse"))
+    # the old residual head still starts from the hard direct light
+    old = network.build(network.arch_for("unet_s", "albedo,normal,depth,direct,eevee_diffuse", target="ref_diffuse"))
+    last = [m for m in old.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+    with torch.no_grad():
+        last.weight.zero_()
+        last.bias.zero_()
+    spec2 = ("albedo", "normal", "depth", "direct", "eevee_diffuse")
+    x2, _ = normalize.to_inputs(g, spec2)
+    with torch.no_grad():
+        y2 = old(torch.from_numpy(x2).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy()
+    assert np.allclose(np.expm1(y2), g["albedo"] * g["direct"], rtol=1e-4, atol=1e-5)
+
+
+def test_eevee_diffuse_is_an_optional_stored_group_so_older_datasets_stay_whole():
+    assert "eevee_diffuse" in ch.SAMPLE_GROUPS and "eevee_diffuse" in ch.OPTIONAL_GROUPS
+    assert "eevee_diffuse" in ch.INPUT_GROUPS and "scene_gi" in ch.INPUT_GROUPS
+    assert ch.GROUPS["eevee_diffuse"].render_pass == "Diffuse Direct"
+    from ssgi.model.dataset import folder
+    old = {"channel_spec": [{"name": g, "channels": []} for g in ("albedo", "normal", "world")]}
+    assert "eevee_diffuse" not in folder.stored_groups(old)
