@@ -15,7 +15,9 @@ variant's SSGI image is scored (model/metrics.score over the geometry mask of th
 scores), and the groups of each variant are compared with the first variant's (PSNR, max |difference|).
 
     nice -n 10 .venv/bin/python benchmarks/pass_cost.py --size 320x180 [--names studio ...] \\
-        [--variants before,merged,...] [--refs /work/reports/artist/data] [--json out.json]
+        [--variants before,merged,...] [--refs /work/reports/artist/data] [--json out.json] [--repeats 3] [--model M.pt]
+
+With a one-render model (``--model``, docs/one_render.md) every variant makes the same single EEVEE render.
     nice -n 10 .venv/bin/python benchmarks/pass_cost.py --facts [--refs /work/reports/artist/data]
 
 Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
@@ -51,13 +53,26 @@ RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest")
 WARM_SIZE = (64, 36)
 
 
-def eevee_gi(scene) -> tuple[np.ndarray, float]:
+def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float]:
+    """EEVEE GI at the scene's samples: (image, seconds). ``plain``: with every view-layer pass but Combined off
+    (the artist's own render, which writes none of the passes SSGI asks for), put back afterwards."""
     from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
     samples = int(scene.eevee.taa_render_samples)
+    vl = scene.view_layers[0]
+    flags = [p.identifier for p in vl.bl_rna.properties if p.identifier.startswith("use_pass_")
+             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
+    saved = {f: getattr(vl, f) for f in flags}
     with passes._settings_kept(scene):
-        t = time.perf_counter()
-        img = render_eevee_gi(scene, "default", samples)
-        return img, time.perf_counter() - t
+        try:
+            if plain:
+                for f in flags:
+                    setattr(vl, f, False)
+            t = time.perf_counter()
+            img = render_eevee_gi(scene, "default", samples)
+            return img, time.perf_counter() - t
+        finally:
+            for f, v in saved.items():
+                setattr(vl, f, v)
 
 
 def ssgi_frame(scene, model, options: dict) -> dict:
@@ -94,7 +109,7 @@ def _cmp(a, b) -> dict:
     return dict(max_abs=float(d.max()), psnr_peak=(math.inf if mse == 0 else 10 * math.log10(peak ** 2 / mse)))
 
 
-def run_scene(name, size, variants, model, refs) -> dict:
+def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool = False) -> dict:
     scene = A.build(name, WARM_SIZE)
     from ssgi.ssgi_addon.blender.compositor import setup_scene
     setup_scene(scene, model)
@@ -102,15 +117,35 @@ def run_scene(name, size, variants, model, refs) -> dict:
     eevee_gi(scene)
     passes.set_resolution(scene, *size)
     row = dict(scene=name, size=f"{size[0]}x{size[1]}", samples=int(scene.eevee.taa_render_samples), variants={})
-    img, row["eevee_gi_s"] = eevee_gi(scene)
+    # with repeats > 1 EEVEE GI and each variant's frame alternate, and the medians are kept: on a shared machine
+    # one render can take twice another's time (docs/pass_cost.md)
+    gi_times, plain_times, frames = [], [], {v: [] for v in variants}
+    for _ in range(max(1, repeats)):
+        img, t = eevee_gi(scene)
+        gi_times.append(t)
+        if plain:
+            plain_times.append(eevee_gi(scene, plain=True)[1])
+        for v in variants:
+            frames[v].append(ssgi_frame(scene, model, VARIANTS[v]))
+    row["eevee_gi_s"] = float(np.median(gi_times))
+    row["eevee_gi_all_s"] = [round(t, 2) for t in gi_times]
+    if plain:  # EEVEE GI writing only Combined, as the artist's own render
+        row["eevee_gi_plain_s"] = round(float(np.median(plain_times)), 2)
+        row["eevee_gi_plain_all_s"] = [round(t, 2) for t in plain_times]
     first = None
     for v in variants:
-        info = ssgi_frame(scene, model, VARIANTS[v])
+        runs = sorted(frames[v], key=lambda i: i["t_total"])
+        info = runs[len(runs) // 2]
         r = dict(renders={k: round(info["t_pass_renders"].get(k, 0.0), 2) for k in RENDERS},
                  passes_s=round(info["t_passes"], 2), standin_s=round(info["t_standin"], 2),
                  predict_s=round(info["t_predict"], 3), composite_s=round(info["t_composite"], 2),
                  frame_s=round(info["t_total"], 2))
         r["ratio_to_eevee_gi"] = round(info["t_total"] / row["eevee_gi_s"], 2)
+        r["frame_all_s"] = [round(i["t_total"], 2) for i in frames[v]]
+        # each frame against the EEVEE GI render made just before it
+        r["paired_ratios"] = [round(i["t_total"] / t, 3) for i, t in zip(frames[v], gi_times)]
+        if plain:
+            r["ratio_to_eevee_gi_plain"] = round(info["t_total"] / row["eevee_gi_plain_s"], 2)
         if name in refs:
             ref, mask = refs[name]
             sc = metrics.score(info["prediction"], ref, mask)
@@ -215,6 +250,10 @@ def main(argv=None) -> int:
     ap.add_argument("--model", default=None, help="checkpoint (default: the shipped model)")
     ap.add_argument("--refs", default=None, help="dataset folder with the scenes' Cycles references at --size")
     ap.add_argument("--json", default=None, help="write the rows here")
+    ap.add_argument("--plain-gi", action="store_true", help="also time EEVEE GI with only the Combined pass "
+                    "written (the artist's own render writes none of SSGI's passes)")
+    ap.add_argument("--repeats", type=int, default=1, help="EEVEE GI and each frame this many times, alternating; "
+                    "the medians are reported (default 1)")
     ap.add_argument("--facts", action="store_true", help="only measure what Blender allows (light groups, the "
                     "Environment pass, the shared groups; with --refs the world group's linearity) and exit")
     a = ap.parse_args(argv)
@@ -231,7 +270,7 @@ def main(argv=None) -> int:
     print(f"load before: {up}", file=sys.stderr)
     rows = []
     for n in a.names:  # the JSON is rewritten after each scene: a stopped run keeps the scenes done
-        rows.append(run_scene(n, a.size, variants, a.model, refs))
+        rows.append(run_scene(n, a.size, variants, a.model, refs, a.repeats, a.plain_gi))
         if a.json:
             Path(a.json).write_text(json.dumps(dict(rows=rows, load_before=up), indent=1))
     up2 = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
