@@ -18,6 +18,9 @@ Before the first scene one untimed warm-up render of each EEVEE configuration, o
 prediction per model take the one-time costs (shader compile, OIDN and torch start-up) out of the timings.
 After the scenes: ``scaling`` (prediction time and peak memory per model at each size, plus the G-buffer
 raster and Cycles 1 spp + OIDN of the first scene at that size) and ``temporal`` (a short camera move).
+
+Over 400 lines by a few: the run's steps for whole-image, diffuse-part and one-render models share one scene loop
+and one timing bookkeeping (docs/architecture.md).
 """
 from __future__ import annotations
 
