@@ -162,14 +162,15 @@ def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(sc
     ck = checkpoint.load(scene_fit["model"])
     assert tuple(ck["inputs"]) == ("albedo", "direct") and scene_fit["summary"]["inputs"] == ["albedo", "direct"]
     assert scene_fit["render"]["inputs"] == "albedo,direct"
-    # the node rendered what the model needs (+ depth, normals and EEVEE's colour, which the render path
-    # always takes for the world pixels and the depth normalisation, and EEVEE's own rest, which a diffuse-part
-    # model's image adds: the fit's views hold the diffuse part since issue 14), and nothing else (no AO)
+    # the node rendered what the model needs (+ depth and normals, which the render path always takes for the
+    # world pixels and the depth normalisation, and EEVEE's own rest, which a diffuse-part model's image adds: the
+    # fit's views hold the diffuse part since issue 14), and nothing else (no AO; no EEVEE direct-lit colour
+    # `eevee`, which only a whole-image model's composition reads: session 12)
     assert ck["arch"]["target"] == "ref_diffuse"
     passes = scene_fit["dir"] / "passes" / "000002.exr"
     planes, _ = exrio.read_exr(passes)
-    assert {c.split(".")[0] for c in planes} == {"albedo", "direct", "depth", "normal", "eevee", "rest"}
-    g = exrio.read_sample(passes, groups=("albedo", "direct", "depth", "normal", "eevee", "rest"))
+    assert {c.split(".")[0] for c in planes} == {"albedo", "direct", "depth", "normal", "rest"}
+    g = exrio.read_sample(passes, groups=("albedo", "direct", "depth", "normal", "rest"))
     want, world = expected_image(scene_fit["model"], g, 100.0)
     got = read_rgba(scene_fit["dir"] / "ssgi_0002.exr")
     np.testing.assert_allclose(got[..., :3], want, rtol=1e-5, atol=1e-6)
