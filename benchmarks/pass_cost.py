@@ -60,13 +60,12 @@ def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float]:
     samples = int(scene.eevee.taa_render_samples)
     vl = scene.view_layers[0]
     flags = [p.identifier for p in vl.bl_rna.properties if p.identifier.startswith("use_pass_")
-             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
+             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly] if plain else []
     saved = {f: getattr(vl, f) for f in flags}
     with passes._settings_kept(scene):
         try:
-            if plain:
-                for f in flags:
-                    setattr(vl, f, False)
+            for f in flags:
+                setattr(vl, f, False)
             t = time.perf_counter()
             img = render_eevee_gi(scene, "default", samples)
             return img, time.perf_counter() - t

@@ -35,9 +35,12 @@ from ...model.errors import UserError
 
 # group -> Blender render pass name (the channel spec's Group.render_pass)
 PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
-# (not eevee_diffuse: EEVEE's own diffuse light comes from the artist-settings render, REST_LIGHT_GROUPS)
+# groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
+# input of one-render models; issue 15, docs/one_render.md)
+REST_LIGHT_GROUPS = ("eevee_diffuse",)
+# (not REST_LIGHT_GROUPS: EEVEE's own diffuse light comes from the artist-settings render)
 EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee"
-                                      and g != "eevee_diffuse")
+                                      and g not in REST_LIGHT_GROUPS)
 # what a bake renders by default: not the artist-settings render `rest` (the render path and the report render it)
 BAKE_EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in EEVEE_GROUPS if g != "rest")
 AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
@@ -391,11 +394,6 @@ last_sources: dict[str, str] = {}
 REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings_no_lamp_culled"
 
 
-# groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
-# input of one-render models; issue 15, docs/one_render.md)
-REST_LIGHT_GROUPS = ("eevee_diffuse",)
-
-
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
@@ -454,7 +452,7 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround"
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
-                   raster_samples: int | None = None, shared_from_rest: bool | None = None) -> dict[str, np.ndarray]:
+                   raster_samples: int | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -467,9 +465,8 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     and was measured, not made the default: docs/pass_cost.md). ``last_timings`` holds each render's seconds,
     ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
     from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
-    for it, the SHARED_GROUPS come from that render whatever the samples (``shared_from_rest``, default: when
-    ``eevee_diffuse`` is asked), so that a one-render model's every input is of that one render
-    (docs/one_render.md). The scene's render settings are put back."""
+    for it, the SHARED_GROUPS (and the motion vectors) come from that render whatever the samples, so that a
+    one-render model's every input is of that one render (docs/one_render.md). The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -480,13 +477,12 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_timings.clear()
     last_sources.clear()
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
-    gi = "eevee_diffuse" in groups
+    gi = any(g in REST_LIGHT_GROUPS for g in groups)
     with_rest = "rest" in groups or gi
-    from_rest = gi if shared_from_rest is None else shared_from_rest
     # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
     # on the lighting)
     shared = tuple(g for g in groups if g in SHARED_GROUPS + (EXTRA_GROUPS if gi else ())) \
-        if merge and with_rest and (rest_at == int(samples) or from_rest) else ()
+        if merge and with_rest and (rest_at == int(samples) or gi) else ()
     rest_groups = shared + tuple(g for g in groups if g in REST_LIGHT_GROUPS)
     raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",) + rest_groups)
     out = {}

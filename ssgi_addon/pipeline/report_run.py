@@ -59,6 +59,11 @@ def _one_render(pred) -> bool:
     return "eevee_diffuse" in ch.required_groups(tuple(pred.spec))
 
 
+def _diffuse_gbuffer(pred) -> bool:
+    """A diffuse-part model that reads the G-buffer renders (world, soft direct, direct-only) beside the rest."""
+    return _diffuse(pred) and not _one_render(pred)
+
+
 def _needs_world(pred) -> bool:
     return "world" in ch.required_groups(tuple(pred.spec))
 
@@ -168,8 +173,7 @@ class ReportRun:
         self._extra = tuple(e for e in EXTRA_GROUPS if any(e in ch.required_groups(tuple(p.spec)) for _, p in models))
         self._steps = 0
         self._t0 = time.perf_counter()
-        n_ssgi = (1 if any(_diffuse(p) and not _one_render(p) for _, p in models) else 0) + \
-            (1 if any(_one_render(p) for _, p in models) else 0)
+        n_ssgi = any(_diffuse_gbuffer(p) for _, p in models) + any(_one_render(p) for _, p in models)
         self.total_steps = (len(scenes) * (2 + n_ssgi + len(models) + len(GI_PRESETS) + 2 * len(settings.spp))
                             + settings.reference_scenes)
 
@@ -219,6 +223,13 @@ class ReportRun:
                      + (" + OIDN" if self.s.ref_denoise else "") + " (another seed)", family="reference",
                      spp=self.s.ref_samples)
 
+    def _one_render_groups(self, scene, samples: int) -> dict:
+        """Every group the one-render models read, and the rest, from one passes.render_gbuffer call: the
+        artist-settings render with ray tracing and fast GI on, as the render path makes it."""
+        want = tuple(dict.fromkeys(g for _, p in self._model_keys.values() if _one_render(p)
+                                   for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal", "rest")))
+        return passes.render_gbuffer(scene, want, samples=samples, rest_samples=samples)
+
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
         g = passes.render_gbuffer(scene, RASTER_GROUPS + ("world",) + self._extra,
@@ -226,11 +237,9 @@ class ReportRun:
         for k in GI_PRESETS:
             render_eevee_gi(scene, k, 1)
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
-        if any(_one_render(p) for _, p in self._model_keys.values()):
-            g["rest"], _b, more = passes.render_rest(scene, 1, groups=("eevee_diffuse",), gi=True)
-            g.update(more)
+        g1 = self._one_render_groups(scene, 1) if any(_one_render(p) for _, p in self._model_keys.values()) else None
         for _, pred in self._model_keys.values():
-            pred.predict(g)
+            pred.predict(g1 if _one_render(pred) else g)
         if any(_diffuse(p) for _, p in self._model_keys.values()):
             passes.render_rest(scene, 1)  # the scene's own EEVEE settings compile their shaders too
         self._warm = True
@@ -281,7 +290,7 @@ class ReportRun:
         self._score("eevee_direct", name, g["eevee"][..., :3], ref, mask,
                     dict(gbuffer_s=t_g, whole_s=t_g, own_s=t_g))
         gd, t_gd, t_wd, t_xd, t_rest = None, 0.0, 0.0, {}, 0.0
-        if any(_diffuse(p) and not _one_render(p) for _, p in self._model_keys.values()):
+        if any(_diffuse_gbuffer(p) for _, p in self._model_keys.values()):
             # the SSGI path of a diffuse-part model: its G-buffer and EEVEE's own other components at the same
             # samples (their anti-aliasing must agree), as the render path renders them
             gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
@@ -290,12 +299,7 @@ class ReportRun:
             self._step(f"{name}: SSGI passes at {s.ssgi_samples} samples: G-buffer {t_gd:.2f} s, rest {t_rest:.2f} s")
         g1, t_one = None, 0.0
         if any(_one_render(p) for _, p in self._model_keys.values()):
-            # a one-render model's every group from one render: the artist-settings render with ray tracing and
-            # fast GI on (passes.render_gbuffer asked for eevee_diffuse), as the render path makes it
-            want = tuple(dict.fromkeys(g for _, p in self._model_keys.items() if _one_render(p[1])
-                                       for g in ch.required_groups(tuple(p[1].spec)) + ("depth", "normal", "rest")))
-            g1, t_one = _timed(passes.render_gbuffer, scene, want, samples=s.ssgi_samples,
-                               rest_samples=s.ssgi_samples)
+            g1, t_one = _timed(self._one_render_groups, scene, s.ssgi_samples)
             self._step(f"{name}: one-render passes at {s.ssgi_samples} samples {t_one:.2f} s")
         for key, (path, pred) in self._model_keys.items():
             gg = g1 if _one_render(pred) else gd if _diffuse(pred) else g
@@ -394,15 +398,13 @@ class ReportRun:
             g = es.gbuffer(scene, s.gbuffer_samples, world=self._world, extra=self._extra)
             seqs.setdefault("EEVEE direct light only", []).append(g["eevee"][..., :3])
             gd = None
-            if any(_diffuse(p) for _, p in self._model_keys.values()):
+            if any(_diffuse_gbuffer(p) for _, p in self._model_keys.values()):
                 gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
                 gd["rest"] = passes.render_rest(scene, s.ssgi_samples)[0]
-            if any(_one_render(p) for _, p in self._model_keys.values()):
-                gd = dict(gd or {})
-                gd["rest_gi"], _b, more = passes.render_rest(scene, s.ssgi_samples, groups=("eevee_diffuse",), gi=True)
-                gd.update(more)
+            g1 = self._one_render_groups(scene, s.ssgi_samples) \
+                if any(_one_render(p) for _, p in self._model_keys.values()) else None
             for key, (path, pred) in self._model_keys.items():
-                gp = dict(gd, rest=gd["rest_gi"]) if _one_render(pred) else gd
+                gp = g1 if _one_render(pred) else gd
                 img = compose(pred.predict(gp), gp, pred.target) if _diffuse(pred) else pred.predict(g)
                 seqs.setdefault(self.raw["methods"][key]["label"], []).append(img)
             if rung is not None:
