@@ -271,6 +271,8 @@ class Fitter:
             cands.append(dict(name="generic-ft", arch=dict(generic["arch"]), start="fine-tune",
                               init_state=generic["net"].state_dict(), params=generic["params"], macs=generic["macs"]))
         cands.sort(key=lambda c: (c["macs"], c["start"] != "fine-tune"))
+        if not cands:
+            raise UserError("--ladder is empty and there is no checkpoint to fine-tune (--init): nothing to train")
         chosen = None
         results = []
         size_end = self.budget.used + SIZE_SHARE * self.budget.left  # time a candidate leaves is shared by the next

@@ -48,6 +48,21 @@ FIT_REF_SAMPLES = 16
 
 # ------------------------------------------------------------------------------------------------- the stage
 
+def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
+    """(ladder, target PSNR) of a fit. A shot fit (``--frames``) with a starting checkpoint fine-tunes only that
+    checkpoint (ladder ``[]``) towards the shot bar (``fit_report.SHOT_BAR_DB``) unless ``--ladder`` /
+    ``--target-psnr`` say otherwise: on the room shot, same 21 baked views and ~10.7 min of training, the default
+    ladder (three scratch networks and the fine-tune sharing half the budget, the fine-tune 42 s; a scratch network
+    kept) scored 31.41 dB on the withheld frames, the fine-tune alone (301 s) 32.72 dB (docs/fit_shot.md). Still scenes keep the ladder
+    (smaller scratch networks predict 2-4x faster there, docs/fit.md). ``(None, None)``: the model's defaults."""
+    from ...model.evaluate.fit_report import SHOT_BAR_DB
+    ladder, target = cfg.ladder, cfg.target_psnr
+    if shot and init:
+        ladder = [] if ladder is None else ladder
+        target = SHOT_BAR_DB if target is None else target
+    return ladder, target
+
+
 @dataclass
 class FitSceneConfig:
     """What ``run`` fits; the defaults are those of ``cli.py fit`` and the Fit panel."""
@@ -160,11 +175,12 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     if left < floor:
         log(f"fit: the bake took {bake_s / 60:.2f} of {cfg.minutes:g} min; fitting gets {fit_minutes:.2f} min "
             "(the whole fit will run over the budget)")
+    ladder, target = shot_defaults(cfg, init, bool(withheld))
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
-                          minutes=fit_minutes, target_psnr=cfg.target_psnr, init=init, threads=cfg.threads,
+                          minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,
                           seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command)
-    if cfg.ladder:
-        mcfg.ladder = [list(r) for r in cfg.ladder]
+    if ladder is not None:  # [] is a choice: only the starting checkpoint, fine-tuned
+        mcfg.ladder = [list(r) for r in ladder]
     if cfg.crop:
         mcfg.crop = cfg.crop
     if cfg.min_run_s:

@@ -101,6 +101,9 @@ def test_fit_shot_report_scores_exactly_the_withheld_frames(shot_fit):
         assert min(r["per_frame"].values()) - 1e-6 <= r["psnr"] <= max(r["per_frame"].values()) + 1e-6
     assert rep["verdict"] == s["verdict"] == fit_report.withheld_verdict(w) and "3, 7, 11, 14, 18" in rep["verdict"]
     assert "## Withheld frames" in mpath.read_text()
+    # a shot fit with a starting checkpoint fine-tunes it alone, towards the shot bar (pipeline.fit.shot_defaults)
+    assert [r["name"] for r in rep["rows"] if r["phase"] == "size"] == ["generic-ft"]
+    assert rep["target_psnr"] == fit_report.SHOT_BAR_DB
     sheets = sorted(p.name for p in (shot_fit["dir"] / "shot.fit" / "withheld").glob("*.png"))
     assert sheets == [f"frame_{f:04d}.png" for f in want]
     assert s["withheld_minutes"] > 0 and s["total_minutes"] > 0

@@ -274,3 +274,32 @@ def test_view_counts_and_roles():
         sfit.view_counts(3, 1, 1)
     r = sfit.roles(10, random.Random(0))
     assert sorted(r) == ["test"] * 2 + ["train"] * 6 + ["val"] * 2
+
+
+def test_fit_with_an_empty_ladder_only_fine_tunes_the_starting_checkpoint(views, generic, tmp_path):
+    """``--ladder '[]'``: the size search trains the starting checkpoint alone (no scratch network); without a
+    checkpoint there is nothing to train, which is a one-line error before any training."""
+    cfg = fit.FitConfig(data=str(views), out=str(tmp_path / "ft.pt"), train_keys=TRAIN, val_keys=VAL, minutes=0.2,
+                        init=str(generic), ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0,
+                        bench_size="96x64", bench_repeats=1, command="test")
+    res = fit.fit(cfg, log=lambda m: None)
+    size = [r for r in res["rows"] if r["phase"] == "size"]
+    assert [r["name"] for r in size] == ["generic-ft"] and size[0]["decision"] == "kept"
+    cfg = fit.FitConfig(data=str(views), out=str(tmp_path / "none.pt"), train_keys=TRAIN, val_keys=VAL, minutes=0.2,
+                        ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0, command="test")
+    with pytest.raises(UserError, match="--ladder is empty"):
+        fit.fit(cfg, log=lambda m: None)
+    assert not (tmp_path / "none.pt").exists()
+
+
+def test_a_shot_fit_fine_tunes_the_starting_checkpoint_towards_the_shot_bar_unless_told_otherwise(tmp_path):
+    from ssgi.model.evaluate.fit_report import SHOT_BAR_DB
+    from ssgi.ssgi_addon.pipeline.fit import FitSceneConfig, shot_defaults
+    cfg = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path))
+    assert shot_defaults(cfg, "generic.pt", shot=True) == ([], SHOT_BAR_DB) and SHOT_BAR_DB == 35.0
+    assert shot_defaults(cfg, "generic.pt", shot=False) == (None, None)  # a still scene: the ladder, generic + 2 dB
+    assert shot_defaults(cfg, None, shot=True) == (None, None)  # nothing to fine-tune: the scratch ladder
+    told = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet", {}]], target_psnr=30.0)
+    assert shot_defaults(told, "generic.pt", shot=True) == ([["xs", "unet", {}]], 30.0)
+    empty = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[])
+    assert shot_defaults(empty, "generic.pt", shot=False) == ([], None)  # an explicit [] is kept, not the default

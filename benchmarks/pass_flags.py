@@ -1,0 +1,73 @@
+"""Benchmark (issue 15, item 4): what each view-layer pass SSGI asks for costs one EEVEE render (ray tracing + fast GI
+on, the artist scene's own samples), against the same render writing only Combined, in the same run.
+
+    .venv/bin/python benchmarks/pass_flags.py --scenes /work/data/artist_scenes --names cornell_emissive exterior \\
+        [--size 960x540] [--repeats 2] [--json out.json]
+
+The scenes are benchmarks/artist_scenes.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
+render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--repeats`` rounds of one render per
+configuration in ``CONFIGS`` (Combined only; Combined + one pass; the five passes a one-render model reads; the five +
+the motion vectors of the temporal mode). Prints each render's seconds and the minimum; machine-noisy, so quote
+ratios from one run.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import _bootstrap  # noqa: F401,E402  (the checkout as package ssgi)
+import bpy  # noqa: E402
+
+from ssgi.model.cliargs import parse_size  # noqa: E402
+
+PASSES = ("use_pass_diffuse_color", "use_pass_diffuse_direct", "use_pass_normal", "use_pass_z", "use_pass_emit")
+VECTOR = "use_pass_vector"
+CONFIGS: dict[str, tuple[str, ...]] = {"combined": (), **{p[len("use_pass_"):]: (p,) for p in PASSES + (VECTOR,)},
+                                       "ssgi5": PASSES, "ssgi5+vector": PASSES + (VECTOR,)}
+
+
+def render(scene, on) -> float:
+    vl = scene.view_layers[0]
+    for p in vl.bl_rna.properties:
+        if p.identifier.startswith("use_pass_") and p.type == "BOOLEAN" and not p.is_readonly \
+                and p.identifier != "use_pass_combined":
+            setattr(vl, p.identifier, p.identifier in on)
+    t = time.perf_counter()
+    bpy.ops.render.render(write_still=False)
+    return time.perf_counter() - t
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", required=True, help="folder of benchmarks/artist_scenes.py's .blend files")
+    ap.add_argument("--names", nargs="+", default=["cornell_emissive", "exterior"])
+    ap.add_argument("--size", type=parse_size, default=(960, 540))
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--json", default=None)
+    a = ap.parse_args(argv)
+    res: dict = {}
+    for name in a.names:
+        bpy.ops.wm.open_mainfile(filepath=f"{a.scenes}/{name}.blend")
+        sc = bpy.context.scene
+        sc.render.engine = "BLENDER_EEVEE"
+        sc.eevee.use_raytracing = True
+        sc.eevee.use_fast_gi = True
+        sc.render.resolution_percentage = 100
+        sc.render.resolution_x, sc.render.resolution_y = 64, 36
+        render(sc, PASSES + (VECTOR,))
+        sc.render.resolution_x, sc.render.resolution_y = a.size
+        for _ in range(a.repeats):
+            for k, on in CONFIGS.items():
+                res.setdefault(name, {}).setdefault(k, []).append(render(sc, on))
+        for k, v in res[name].items():
+            print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}", flush=True)
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(res, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
