@@ -37,6 +37,7 @@ from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import artist_scenes as A  # noqa: E402
+from pass_flags import optional_pass_flags  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
@@ -59,8 +60,7 @@ def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float]:
     from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
     samples = int(scene.eevee.taa_render_samples)
     vl = scene.view_layers[0]
-    flags = [p.identifier for p in vl.bl_rna.properties if p.identifier.startswith("use_pass_")
-             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly] if plain else []
+    flags = optional_pass_flags(vl) if plain else []
     saved = {f: getattr(vl, f) for f in flags}
     with passes._settings_kept(scene):
         try:

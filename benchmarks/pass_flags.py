@@ -7,7 +7,8 @@ on, the artist scene's own samples), against the same render writing only Combin
 The scenes are benchmarks/artist_scenes.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
 render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--repeats`` rounds of one render per
 configuration in ``CONFIGS`` (Combined only; Combined + one pass; the five passes a one-render model reads; the five +
-the motion vectors of the temporal mode). Prints each render's seconds and the minimum; machine-noisy, so quote
+the motion vectors of the temporal mode), all with ray tracing + fast GI on, and ``NO_GI``: Combined only with both
+off (what EEVEE's own GI costs the render). Prints each render's seconds and the minimum; machine-noisy, so quote
 ratios from one run.
 """
 from __future__ import annotations
@@ -26,14 +27,21 @@ PASSES = ("use_pass_diffuse_color", "use_pass_diffuse_direct", "use_pass_normal"
 VECTOR = "use_pass_vector"
 CONFIGS: dict[str, tuple[str, ...]] = {"combined": (), **{p[len("use_pass_"):]: (p,) for p in PASSES + (VECTOR,)},
                                        "ssgi5": PASSES, "ssgi5+vector": PASSES + (VECTOR,)}
+NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEVEE's own GI costs the render
 
 
-def render(scene, on) -> float:
+def optional_pass_flags(view_layer) -> list[str]:
+    """The view layer's writable ``use_pass_*`` switches, Combined excepted (Combined is always written)."""
+    return [p.identifier for p in view_layer.bl_rna.properties if p.identifier.startswith("use_pass_")
+            and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
+
+
+def render(scene, on, gi: bool = True) -> float:
+    """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``."""
     vl = scene.view_layers[0]
-    for p in vl.bl_rna.properties:
-        if p.identifier.startswith("use_pass_") and p.type == "BOOLEAN" and not p.is_readonly \
-                and p.identifier != "use_pass_combined":
-            setattr(vl, p.identifier, p.identifier in on)
+    for f in optional_pass_flags(vl):
+        setattr(vl, f, f in on)
+    scene.eevee.use_raytracing = scene.eevee.use_fast_gi = gi
     t = time.perf_counter()
     bpy.ops.render.render(write_still=False)
     return time.perf_counter() - t
@@ -52,8 +60,6 @@ def main(argv=None) -> int:
         bpy.ops.wm.open_mainfile(filepath=f"{a.scenes}/{name}.blend")
         sc = bpy.context.scene
         sc.render.engine = "BLENDER_EEVEE"
-        sc.eevee.use_raytracing = True
-        sc.eevee.use_fast_gi = True
         sc.render.resolution_percentage = 100
         sc.render.resolution_x, sc.render.resolution_y = 64, 36
         render(sc, PASSES + (VECTOR,))
@@ -61,6 +67,7 @@ def main(argv=None) -> int:
         for _ in range(a.repeats):
             for k, on in CONFIGS.items():
                 res.setdefault(name, {}).setdefault(k, []).append(render(sc, on))
+            res[name].setdefault(NO_GI, []).append(render(sc, (), gi=False))
         for k, v in res[name].items():
             print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}", flush=True)
     if a.json:

@@ -109,6 +109,8 @@ class FitConfig:
             raise UserError("train, validation and test views must be disjoint")
         if self.inputs is not None:
             ch.parse_spec(self.inputs)
+        if not self.ladder and not self.init:
+            raise UserError("--ladder is empty and there is no checkpoint to fine-tune (--init): nothing to train")
         for row in self.ladder:
             if len(row) != 3 or not isinstance(row[2], dict):
                 raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")
@@ -271,8 +273,6 @@ class Fitter:
             cands.append(dict(name="generic-ft", arch=dict(generic["arch"]), start="fine-tune",
                               init_state=generic["net"].state_dict(), params=generic["params"], macs=generic["macs"]))
         cands.sort(key=lambda c: (c["macs"], c["start"] != "fine-tune"))
-        if not cands:
-            raise UserError("--ladder is empty and there is no checkpoint to fine-tune (--init): nothing to train")
         chosen = None
         results = []
         size_end = self.budget.used + SIZE_SHARE * self.budget.left  # time a candidate leaves is shared by the next
