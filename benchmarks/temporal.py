@@ -35,7 +35,7 @@ def _window_blend(parts, groups, k, w, target, clamp=True):
     from ssgi.model.infer import history as hist, temporal as tp
     from ssgi.model.infer.compose import compose
     ones = lambda g: np.ones(g["albedo"].shape[:2] + (3,), np.float32)
-    la = (lambda g: g["albedo"]) if target == ch.DIFFUSE_TARGET else ones
+    la = (lambda g: g["albedo"]) if ch.adds_rest(target) else ones
     entries = [hist.make_entry(p, g, la(g)) for p, g in zip(parts, groups)]
     out = []
     for t, (p, g) in enumerate(zip(parts, groups)):

@@ -151,15 +151,34 @@ INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "w
                                  "emit_direct", "surround", "eevee_diffuse", "lit", "scene", "glow", "scene_gi")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
-TARGETS: tuple[str, ...] = ("ref", "ref_diffuse")
+# A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what
+# a prediction + rest must be to equal Cycles' image. A model that learns it is composed as a ref_diffuse model
+# (prediction + rest) and can also correct EEVEE's rest where it differs from Cycles' on surfaces with a diffuse
+# colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit_shot.md); where
+# the albedo is 0 (metal) its prediction stays 0 and EEVEE's rest stands. The per-shot fit's --learn-rest (issue 16).
+TARGETS: tuple[str, ...] = ("ref", "ref_diffuse", "ref_minus_rest")
 TARGET_GROUP = "ref"  # the image every method is scored against, and the target of a checkpoint that names none
 DIFFUSE_TARGET = "ref_diffuse"
+REST_TARGET = "ref_minus_rest"
+# the stored groups each target is read from (the others are stored groups themselves)
+TARGET_SOURCES: dict[str, tuple[str, ...]] = {REST_TARGET: ("ref", "rest")}
 
 
 def check_target(target: str) -> str:
     if target not in TARGETS:
         raise UserError(f"unknown target {target!r}; known: {', '.join(TARGETS)}")
     return target
+
+
+def target_groups(target: str) -> tuple[str, ...]:
+    """The stored groups a sample's ``target`` is built from."""
+    return TARGET_SOURCES.get(check_target(target), (target,))
+
+
+def adds_rest(target: str) -> bool:
+    """Whether the SSGI image of a model of ``target`` is its prediction + EEVEE's rest (model/infer/compose.py):
+    ref_diffuse and ref_minus_rest models; a ref model's prediction is the whole image."""
+    return check_target(target) in (DIFFUSE_TARGET, REST_TARGET)
 # The seed's 13 inputs.
 DEFAULT_INPUTS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "lit")
 

@@ -60,6 +60,10 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="First frame of the shot; 0: the scene's frame start")
     fit_frame_end: bpy.props.IntProperty(name="End", default=0, min=0,
                                          description="Last frame of the shot; 0: the scene's frame end")
+    fit_learn_rest: bpy.props.BoolProperty(name="Learn the Rest", default=False,
+                                           description="Learn Cycles' image minus EEVEE's rest, not only its diffuse "
+                                                       "part: the model also makes up for what EEVEE's reflections "
+                                                       "miss on surfaces with a diffuse colour (cli.py fit --learn-rest)")
     fit_target_psnr: bpy.props.FloatProperty(name="Target PSNR", default=0.0, min=0.0, soft_max=60.0,
                                              description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
     # Dataset panel (ops/bake_ops.py): Randomize Room and Bake Dataset (defaults as cli.py randomize / bake)

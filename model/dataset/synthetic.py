@@ -67,10 +67,27 @@ def with_emission(g: dict, seed: int) -> dict:
     return g
 
 
+def with_rest(g: dict, seed: int, eevee_share: float = 0.3) -> dict:
+    """``with_emission`` and EEVEE's ``rest``: Cycles' image also holds a glossy glow around the emitter on the
+    diffuse-coloured surfaces, of which EEVEE's rest renders only ``eevee_share`` (as EEVEE's rough reflections
+    miss an emissive lamp shade, docs/fit_shot.md); the emission itself is in both."""
+    g = with_emission(g, seed)
+    h, w = g["albedo"].shape[:2]
+    em = g["emission"].max(-1)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    cy, cx = (np.argwhere(em > 0).mean(0) if (em > 0).any() else (h / 2, w / 2))
+    glow = (0.3 / (1.0 + ((yy - cy) ** 2 + (xx - cx) ** 2) / (0.2 * w) ** 2))[..., None] * np.ones(3, np.float32)
+    glow = (glow * (g["albedo"].max(-1, keepdims=True) > 0)).astype(np.float32)
+    g["ref"] = (g["ref"] + glow).astype(np.float32)
+    g["rest"] = (g["emission"] + eevee_share * glow).astype(np.float32)
+    return g
+
+
 def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int = 32, seed: int = 0,
-                 half: bool = False, emission: bool = False) -> Path:
+                 half: bool = False, emission: bool = False, rest: bool = False) -> Path:
     """Write a synthetic dataset folder; returns its path. With ``emission``, the samples hold the groups of the
-    issue-14 bakes too (``with_emission``), so models trained on it learn the diffuse part."""
+    issue-14 bakes too (``with_emission``), so models trained on it learn the diffuse part; with ``rest`` also
+    EEVEE's rest, which misses part of Cycles' glossy light (``with_rest``)."""
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     samples = {}
@@ -80,11 +97,13 @@ def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int 
             key = folder.sample_name(k)
             sd = seed * 100003 + k
             g = sample(w, h, sd, seed * 1009 + s)
-            exrio.write_sample(folder.sample_path(root, key), with_emission(g, sd) if emission else g, half=half)
+            g = with_rest(g, sd) if rest else with_emission(g, sd) if emission else g
+            exrio.write_sample(folder.sample_path(root, key), g, half=half)
             samples[key] = dict(seed=sd, scene=f"synthetic-{seed}-{s}", camera=v, frame=1, timings={})
             k += 1
     m = folder.new_manifest(dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), "synthetic",
-                            groups=tuple(sample(2, 2, 0, 0)) + (("emission", "ref_diffuse") if emission else ()))
+                            groups=tuple(sample(2, 2, 0, 0)) + (("emission", "ref_diffuse") if emission or rest else ())
+                            + (("rest",) if rest else ()))
     m["samples"] = samples
     folder.write_manifest(root, m)
     return root

@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import files, images, metrics, normalize
+from .. import channels as ch, files, images, metrics, normalize
 from ..infer import bench, predictor
+from ..infer.compose import compose
 from ..learn.validation import evaluate
 
 
@@ -53,8 +54,10 @@ def score(net, samples) -> dict:
 
 def score_node(net, views, keys) -> dict:
     """The views ``keys`` of ``views`` (data.StoredSamples) scored through Predictor.predict, i.e. what the
-    SSGI node shows (``score`` scores the raw network output). Pooled over the geometry pixels; SSIM with
-    the reference pasted where nothing was hit, as ``evaluate`` does."""
+    SSGI node shows (``score`` scores the raw network output): a model that adds EEVEE's rest (ref_diffuse,
+    ref_minus_rest) is composed with the view's rest when the view holds it (model/infer/compose.py), and
+    scored against Cycles' whole image. Pooled over the geometry pixels; SSIM with the reference pasted where
+    nothing was hit, as ``evaluate`` does."""
     keys = views.keys(keys)
     if not keys:
         return {}
@@ -64,7 +67,10 @@ def score_node(net, views, keys) -> dict:
     try:
         for k in keys:
             g = views.raw[k]
-            r = metrics.score(pred.predict(g), normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
+            out = pred.predict(g)
+            if ch.adds_rest(pred.target) and "rest" in g:
+                out = compose(out, g, pred.target)
+            r = metrics.score(out, normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
                               with_flip=False)
             p.add_score(r)
             tp.add_score(r)

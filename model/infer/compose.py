@@ -7,6 +7,9 @@ A model predicts its checkpoint's target (``Predictor.target``, ``channels.TARGE
   renders itself at the artist's settings: emission, the world seen directly, glossy and metal reflections,
   transmission, volumes. Where the prediction equals EEVEE's own diffuse part the image is EEVEE's own render
   exactly; nothing-hit pixels have no albedo, so the prediction is 0 there and the sky comes from ``rest``.
+- ``ref_minus_rest`` (a shot fit's --learn-rest): composed as ``ref_diffuse``; the model learned Cycles' image
+  minus EEVEE's rest, so its prediction also makes up for where EEVEE's rest falls short on diffuse-coloured
+  surfaces.
 - ``ref`` (models before issue 14): the whole image; pixels where nothing was hit (``background``) show
   EEVEE's Combined image (group ``eevee``).
 """
@@ -20,7 +23,7 @@ from ..errors import UserError
 
 def needs(target: str) -> tuple[str, ...]:
     """The groups ``compose`` reads besides the prediction, for a model of ``target``."""
-    return ("rest",) if ch.check_target(target) == ch.DIFFUSE_TARGET else ("eevee",)
+    return ("rest",) if ch.adds_rest(target) else ("eevee",)
 
 
 def compose(pred: np.ndarray, groups: dict, target: str, background: np.ndarray | None = None) -> np.ndarray:
@@ -30,7 +33,7 @@ def compose(pred: np.ndarray, groups: dict, target: str, background: np.ndarray 
     if miss:
         raise UserError(f"composing the SSGI image of a {target} model needs the group(s) {', '.join(miss)}")
     out = np.array(pred[..., :3], dtype=np.float32, copy=True)
-    if target == ch.DIFFUSE_TARGET:
+    if ch.adds_rest(target):
         rest = np.nan_to_num(np.asarray(groups["rest"], np.float32)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
         out += rest
         # rest is negative on some anti-aliased edges (mean of products against product of means); the image is not

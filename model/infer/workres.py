@@ -408,7 +408,7 @@ class WorkingResolution:
         t1 = time.perf_counter()
         part = self.inner.predict(lo, tile=tile)
         t2 = time.perf_counter()
-        if getattr(self.inner, "target", ch.DIFFUSE_TARGET) == ch.DIFFUSE_TARGET:
+        if ch.adds_rest(getattr(self.inner, "target", ch.DIFFUSE_TARGET)):
             out = upsample_part(part, lo, groups, method=self.method, residual=self.residual, factor=f,
                                threads=self.threads)
         else:

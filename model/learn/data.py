@@ -63,7 +63,7 @@ def _groups_for(spec, target: str = ch.TARGET_GROUP) -> tuple[str, ...]:
     """The stored groups a sample for ``spec`` is built from: the spec's, plus the normals and depth (the
     geometry mask; normals also mark the background for the depth normalisation, as the render path does) and
     the ``target`` reference."""
-    return tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth", target)))
+    return tuple(dict.fromkeys(ch.required_groups(spec) + ("normal", "depth") + ch.target_groups(target)))
 
 
 def default_target(manifest: dict) -> str:
@@ -258,7 +258,8 @@ class StoredSamples:
         self.root = Path(root)
         self.manifest = folder.open_folder(self.root, scenes=True)
         stored = folder.stored_groups(self.manifest)
-        groups = tuple(g for g in _groups_for(ch.INPUT_GROUPS) + ch.TARGETS if g in stored)
+        groups = tuple(g for g in dict.fromkeys(_groups_for(ch.INPUT_GROUPS) + tuple(
+            s for t in ch.TARGETS for s in ch.target_groups(t))) if g in stored)
         self.target = default_target(self.manifest)
         self.skipped: dict[str, str] = {}
         self.raw = {k: g for k, _scene, g in read_samples(self.root, self.manifest, groups, keys, skipped=self.skipped)}

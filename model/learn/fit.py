@@ -91,6 +91,9 @@ class FitConfig:
     bench_repeats: int = 5
     bench_size: str | None = "960x540"  # the final and the generic model are also timed at this size
     min_run_s: float = MIN_RUN_S  # a training run shorter than this is not started
+    # what the networks learn (channels.TARGETS; None: the views' default, ref_diffuse). "ref_minus_rest": Cycles'
+    # image minus EEVEE's rest, composed as ref_diffuse (cli.py fit --learn-rest)
+    target: str | None = None
     command: str | None = None
 
     def check(self) -> None:
@@ -109,6 +112,9 @@ class FitConfig:
             raise UserError("train, validation and test views must be disjoint")
         if self.inputs is not None:
             ch.parse_spec(self.inputs)
+        if self.target is not None and not ch.adds_rest(self.target):
+            raise UserError(f"fit target {self.target!r}: a fit learns ref_diffuse or ref_minus_rest (the node adds "
+                            "EEVEE's rest to either)")
         if not self.ladder and not self.init:
             raise UserError("--ladder is empty and there is no checkpoint to fine-tune (--init): nothing to train")
         for row in self.ladder:
@@ -226,6 +232,13 @@ class Fitter:
         self.work.mkdir(parents=True, exist_ok=True)
         self.views = data.StoredSamples(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys),
                                         log=self.log)
+        if cfg.target:
+            ch.check_target(cfg.target)
+            lacking = [g for g in ch.target_groups(cfg.target) if g not in folder.stored_groups(self.views.manifest)]
+            if lacking:
+                raise UserError(f"{cfg.data}: the views lack {', '.join(lacking)}, which target {cfg.target} is made "
+                                "of; bake them again with this version")
+            self.views.target = cfg.target
         self.train_keys, self.val_keys = self.views.keys(cfg.train_keys), self.views.keys(cfg.val_keys)
         self.test_keys = self.views.keys(cfg.test_keys)
         if not self.train_keys or not self.val_keys:

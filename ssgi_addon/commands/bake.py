@@ -24,7 +24,7 @@ def run_bake(args) -> dict:
     cfg = BakeConfig(out=args.out, count=args.count, seed=args.seed, size=tuple(args.size),
                      ref_samples=args.ref_samples, ref_target_db=args.ref_target_db, denoise=args.denoise,
                      eevee_samples=args.eevee_samples, shard=args.shard, scenes=args.scenes, frames=args.frames,
-                     mode=args.mode, gi_samples=args.gi_samples)
+                     mode=args.mode, gi_samples=args.gi_samples, rest_samples=args.rest_samples)
     bar = None
 
     def on_start(ev):  # the bar shows from the start, not after the first (minutes-long) sample
@@ -114,6 +114,10 @@ def register_cli(sub) -> None:
                         "the room with ray tracing and fast GI on at N samples (eevee_diffuse, rest, albedo, normal, "
                         "depth, emission), and no world, soft direct or emitter renders (docs/one_render.md; "
                         "default 0: the full bake)")
+    p.add_argument("--rest-samples", type=cliargs.nonnegative_int, default=0, metavar="N",
+                   help="the samples also hold EEVEE's rest (all it renders besides diffuse light) of the scene at its "
+                        "own settings at N samples, as the node renders it: what a fit that learns the rest "
+                        "(cli.py fit --learn-rest) subtracts from Cycles' image (default 0: no rest)")
     p.add_argument("--shard", type=cliargs.parse_shard, default=None, metavar="i/n",
                    help="bake only samples i, i+n, ... (0-based) into a shard manifest; join with `merge`")
     p.add_argument("--scenes", nargs="+", metavar="FILE.blend", help="bake these scenes' cameras instead of rooms")

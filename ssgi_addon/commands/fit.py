@@ -25,7 +25,7 @@ def config(args) -> FitSceneConfig:
                           init=args.init, drop_tol=args.drop_tol, ref_samples=args.ref_samples,
                           ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop,
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
-                          frames=args.frames, command=command_line())
+                          frames=args.frames, learn_rest=args.learn_rest, command=command_line())
 
 
 def run(args) -> dict:
@@ -96,5 +96,9 @@ def register_cli(sub) -> None:
                    help="shortest training run worth starting (default 5; lower only for tiny test budgets)")
     p.add_argument("--threads", type=cliargs.positive_int, default=None, help="torch threads")
     p.add_argument("--seed", type=int, default=D.seed)
+    p.add_argument("--learn-rest", action="store_true",
+                   help="learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: "
+                        "the model also makes up for what EEVEE's reflections miss on surfaces with a diffuse colour "
+                        "(e.g. the glossy glow of an emissive lamp on default Principled walls); metal stays EEVEE's")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)

@@ -6,6 +6,7 @@ import json
 import os
 import sys
 
+from ...model import channels as ch
 from ...model.cliargs import existing_file, working_res
 from ..pipeline.learn import BaselineConfig, ExportConfig, PredictConfig
 from . import command_line
@@ -131,10 +132,12 @@ def register_cli(sub) -> None:
     p.add_argument("--init", metavar="M.pt", default=None, type=existing_file,
                    help="start from this checkpoint's weights, variant and architecture; inputs it lacks start at 0, "
                         "so training begins from exactly its predictions (e.g. the shipped model)")
-    p.add_argument("--target", choices=("ref", "ref_diffuse"), default=None,
+    p.add_argument("--target", choices=ch.TARGETS, default=None,
                    help="what the network learns: ref_diffuse, the diffuse part of the Cycles image, which the render "
                         "path adds to EEVEE's own emission, reflections and glass (default when the dataset holds it), "
-                        "or ref, the whole image (datasets baked before issue 14)")
+                        "ref, the whole image (datasets baked before issue 14), or ref_minus_rest, the Cycles image "
+                        "minus EEVEE's rest, composed as ref_diffuse (it also makes up for EEVEE's rest on "
+                        "diffuse-coloured surfaces; needs samples with rest, as a fit's views)")
     p.add_argument("--minutes", type=float,
                    help=f"time budget in minutes (default {DEFAULT_MINUTES:g} when --epochs is not given)")
     p.add_argument("--epochs", type=int, help="number of epochs")

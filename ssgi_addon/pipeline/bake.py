@@ -41,9 +41,12 @@ ROOM_MODES = room.MODES
 
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
-              ref_target_db=None, mode="diffuse", gi_samples=0):
+              ref_target_db=None, mode="diffuse", gi_samples=0, rest_samples=0):
     s = _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, scenes, frames, ref_target_db,
                        mode)
+    if rest_samples and not gi_samples:
+        s["eevee"]["rest"] = {"samples": int(rest_samples), "mode": passes.REST_MODE,
+                              "render": "the scene's own EEVEE settings (passes.render_rest), as the node renders it"}
     if gi_samples:
         s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": True, "fast_gi": True,
                                     "groups_from_it": ["eevee_diffuse", "rest", *passes.SHARED_GROUPS],
@@ -69,12 +72,18 @@ def _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, 
 
 def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, ref_seed: int = 0,
                   keep_sky: bool = True, eevee_groups=None, cycles_groups=("ref",),
-                  ref_target_db: float | None = None, gi_samples: int = 0) -> tuple[dict, dict, dict]:
+                  ref_target_db: float | None = None, gi_samples: int = 0,
+                  rest_samples: int = 0) -> tuple[dict, dict, dict]:
     """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds, reference info). ``gi_samples``:
-    the samples of the artist-settings render that gives eevee_diffuse and rest (a one-render bake)."""
+    the samples of the artist-settings render that gives eevee_diffuse and rest (a one-render bake).
+    ``rest_samples``: also EEVEE's ``rest`` of the scene at its own settings at that many samples, as the node
+    renders it (a render of its own; the other groups are as without it)."""
     t0 = time.perf_counter()
-    groups = passes.render_gbuffer(scene, BAKE_INPUT_GROUPS if eevee_groups is None else eevee_groups,
-                                   samples=eevee_samples, keep_sky=keep_sky, rest_samples=gi_samples or None)
+    eevee_groups = BAKE_INPUT_GROUPS if eevee_groups is None else tuple(eevee_groups)
+    if rest_samples and "rest" not in eevee_groups:
+        eevee_groups += ("rest",)
+    groups = passes.render_gbuffer(scene, eevee_groups, samples=eevee_samples, keep_sky=keep_sky,
+                                   rest_samples=gi_samples or rest_samples or None)
     groups.pop("beauty", None)
     t1 = time.perf_counter()
     refs, ref_info = render_references(scene, ref_samples, ref_target_db, seed=ref_seed, denoise=denoise,
@@ -142,7 +151,7 @@ def _complete(out, name, manifest) -> bool:
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
               shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
-              mode: str = "diffuse", gi_samples: int = 0):
+              mode: str = "diffuse", gi_samples: int = 0, rest_samples: int = 0):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -162,16 +171,18 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     out = Path(out)
     if scenes:
         settings = _settings("scenes", (w, h), ref_samples, denoise, eevee_samples, scenes=scenes,
-                             frames=list(frames) if frames else None, ref_target_db=target, gi_samples=gi_samples)
+                             frames=list(frames) if frames else None, ref_target_db=target, gi_samples=gi_samples,
+                             rest_samples=rest_samples)
     else:
         settings = _settings("rooms", (w, h), ref_samples, denoise, eevee_samples, first_seed=seed,
-                             ref_target_db=target, mode=mode, gi_samples=gi_samples)
+                             ref_target_db=target, mode=mode, gi_samples=gi_samples, rest_samples=rest_samples)
     # list the jobs first: an unreadable .blend or a scene without a camera stops before the folder is touched
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
     manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
-                                 groups=ONE_RENDER_BAKE_GROUPS if gi_samples else BAKE_GROUPS)
+                                 groups=ONE_RENDER_BAKE_GROUPS if gi_samples else
+                                 BAKE_GROUPS + (("rest",) if rest_samples else ()))
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
@@ -181,6 +192,8 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     # without it
     eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in BAKE_INPUT_GROUPS + ("rest",))
     gi_samples = int(manifest["settings"].get("eevee", {}).get("one_render", {}).get("gi_samples", 0))
+    # (a folder goes on as it was begun: with rest at its samples, or without)
+    rest_samples = int(manifest["settings"].get("eevee", {}).get("rest", {}).get("samples", 0))
     cycles_groups = tuple(g for g in ds.stored_groups(manifest) if g in CYCLES_SAMPLE_GROUPS)
 
     def owned(final_name):
@@ -217,7 +230,8 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
             groups, timings, ref_info = render_sample(scene, ref_samples, denoise, eevee_samples,
                                                       ref_seed=info["seed"], keep_sky=keep_sky,
                                                       eevee_groups=eevee_groups, cycles_groups=cycles_groups,
-                                                      ref_target_db=target, gi_samples=gi_samples)
+                                                      ref_target_db=target, gi_samples=gi_samples,
+                                                      rest_samples=rest_samples)
             exrio.write_sample(ds.sample_path(out, name), groups, half=settings["half"],
                                header={"ssgi_seed": info["seed"], "ssgi_scene": info["scene"]})
             manifest["samples"][name] = dict(info, timings=timings, reference=ref_info)
@@ -256,6 +270,7 @@ class BakeConfig:
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
     gi_samples: int = 0  # > 0: a one-render bake, its artist-settings render at this many samples (docs/one_render.md)
+    rest_samples: int = 0  # > 0: the samples also hold EEVEE's rest at the scene's settings at this many samples
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
@@ -272,7 +287,7 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
                     frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode,
-                    gi_samples=cfg.gi_samples)
+                    gi_samples=cfg.gi_samples, rest_samples=cfg.rest_samples)
     start = next(gen)
     if on_start:
         on_start(start)

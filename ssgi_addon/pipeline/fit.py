@@ -36,7 +36,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...model import cliargs, files
+from ...model import channels as ch, cliargs, files
 from ...model.errors import UserError
 
 MIN_FIT_MINUTES = 0.5
@@ -84,6 +84,9 @@ class FitSceneConfig:
     threads: int | None = None  # torch threads
     seed: int = 0
     frames: tuple[int, int] | None = None  # a shot A..B: withhold whole frames for the test (module doc)
+    # learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: the fitted
+    # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit_shot.md, "Learning the rest")
+    learn_rest: bool = False
     command: str | None = None  # recorded in the checkpoint
 
     def check(self) -> None:
@@ -152,6 +155,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         plan = fviews.make_views(scene, cfg.views, cfg.seed, frames=tuple(cfg.frames) if cfg.frames else None)
         size = tuple(cfg.size) if cfg.size else fviews.default_size(scene)
         plan.update(size=list(size), blend=str(blend))
+        if cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
+            plan["rest_samples"] = int(scene.eevee.taa_render_samples)
         work.mkdir(parents=True, exist_ok=True)
         # views of THIS file with THESE settings: an edited scene gets new views, an unchanged one resumes
         tag = fviews.views_tag(blend, plan)
@@ -160,7 +165,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         files.write_json(work / "views_plan.json", plan, default=str)
         data_dir = work / f"views-{tag}"
         report(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
-        bake_views(wblend, data_dir, plan, size, ref_samples=cfg.ref_samples, log=log)
+        bake_views(wblend, data_dir, plan, size, ref_samples=cfg.ref_samples, log=log,
+                   rest_samples=plan.get("rest_samples", 0))
         bake_s = time.perf_counter() - t0
         log(f"fit: views baked in {bake_s / 60:.2f} min")
     train, val, test = fviews.split_views(data_dir, plan)
@@ -178,7 +184,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     ladder, target = shot_defaults(cfg, init, bool(withheld))
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
                           minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,
-                          seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command)
+                          seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command,
+                          target=ch.REST_TARGET if cfg.learn_rest else None)
     if ladder is not None:  # [] is a choice: only the starting checkpoint, fine-tuned
         mcfg.ladder = [list(r) for r in ladder]
     if cfg.crop:
@@ -271,7 +278,7 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
             refs = passes.render_cycles(scene, int(ref_samples), seed=100003 + f, denoise=True,
                                         groups=("ref", "ref_diffuse"))
         ref = refs["ref"]
-        if session.target == ch.DIFFUSE_TARGET:  # the ceiling of any diffuse-part model: EEVEE's rest is kept
+        if ch.adds_rest(session.target):  # the ceiling of any diffuse-part model: EEVEE's rest is kept
             imgs["oracle_diffuse"] = compose(refs["ref_diffuse"], g, scene.camera.data.clip_end, ch.DIFFUSE_TARGET)
         out.append(dict(frame=f, ref=ref, mask=images.geometry_mask(g["depth"], g["normal"]), images=imgs,
                         seconds=secs))
@@ -286,14 +293,18 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
 
 # ------------------------------------------------------------------------------------------------- bake
 
-def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None) -> None:
+def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None,
+               rest_samples: int = 0) -> None:
     """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
     a child process (the baker resumes a half-done folder). The baker stays in this process's group and dies
-    with it (runtime/launcher.py), so cancelling the fit ends the baker too."""
+    with it (runtime/launcher.py), so cancelling the fit ends the baker too. ``rest_samples``: the views also
+    hold EEVEE's rest at that many samples (a fit that learns the rest)."""
     from ..runtime import launcher
     cmd = launcher.cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
                                "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
     cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
+    if rest_samples:
+        cmd += ["--rest-samples", str(int(rest_samples))]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")
     launcher.run(cmd, env=launcher.cli_env(), new_group=False).check("baking the views")
 

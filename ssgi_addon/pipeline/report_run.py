@@ -70,7 +70,7 @@ def _needs_world(pred) -> bool:
 
 def _diffuse(pred) -> bool:
     """A model that predicts the diffuse part: its image is prediction + EEVEE's own rest (infer/compose.py)."""
-    return pred.target == ch.DIFFUSE_TARGET
+    return ch.adds_rest(pred.target)
 
 
 @dataclass(kw_only=True)

@@ -1,7 +1,9 @@
 """Fit a shot (issue 16, item 3) on real Blender: the plan withholds whole frames, the bake keeps away from
 them, a tiny fit scores exactly those frames as the node renders them, and bad frame ranges are one-line
 errors. The shot is benchmarks/shot_scenes.py's "ripple" (a moving camera, a moving cube, a Wave and a Simple
-Deform modifier) at 64x36 over 20 frames, EEVEE at 1 sample."""
+Deform modifier) at 64x36 over 20 frames, EEVEE at 1 sample. The module's fit learns the rest (--learn-rest): its
+views hold EEVEE's rest and the model learns Cycles' image minus it (the still-scene fits of test_fit.py learn the
+diffuse part)."""
 from __future__ import annotations
 
 import json
@@ -61,7 +63,8 @@ shot_scenes.save(sc, {str(blend)!r})
     model = d / "shot.pt"
     p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
                 "--minutes", "0.5", "--size", "64x36", "--ref-samples", "2", "--init", str(generic), "--drop-tol",
-                str(ABLATE_ALL), "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--json", timeout=2400)
+                str(ABLATE_ALL), "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--learn-rest", "--json",
+                timeout=2400)
     return dict(dir=d, blend=blend, model=model, summary=json.loads(p.stdout))
 
 
@@ -81,6 +84,41 @@ def test_fit_shot_bakes_no_view_within_a_frame_of_the_withheld_frames(shot_fit):
     assert rep["views"]["test"] == [] and rep["views"]["val"]
     val_cams = {m["samples"][k]["camera"] for k in rep["views"]["val"]}
     assert val_cams and all(plan["cameras"][c] == "val" for c in val_cams)
+
+
+def test_a_fit_that_learns_the_rest_bakes_eevees_rest_and_learns_cycles_minus_it(shot_fit):
+    """--learn-rest: the views hold EEVEE's rest at the scene's own samples (the node's), rendered as the node
+    renders it, and the fitted model's target is ref_minus_rest, composed as the node composes a diffuse-part
+    model (prediction + rest)."""
+    import numpy as np
+
+    from ssgi.model import channels as ch
+    from ssgi.model.dataset import exrio, folder as data_folder
+    work = shot_fit["dir"] / "shot.fit"
+    plan = json.loads((work / "views_plan.json").read_text())
+    assert plan["rest_samples"] == 1  # the scene renders 1 sample
+    (views,) = [p for p in work.glob("views-*") if p.is_dir()]
+    m = data_folder.open_folder(views, scenes=True)
+    assert "rest" in data_folder.stored_groups(m) and m["settings"]["eevee"]["rest"]["samples"] == 1
+    key, meta = sorted(m["samples"].items())[0]
+    g = exrio.read_sample(data_folder.sample_path(views, key), ("rest", "ref", "ref_diffuse", "emission"))
+    assert np.isfinite(g["rest"]).all() and np.abs(g["rest"]).max() > 0
+    # the node's rest of the same view, rendered here again
+    got = views.parent / "rest_again.npy"
+    run_py(f'''
+import bpy, numpy as np
+from ssgi.ssgi_addon.blender import passes
+bpy.ops.wm.open_mainfile(filepath={str(sorted(work.glob("views-*.blend"))[0])!r})
+sc = bpy.context.scene
+sc.camera = sc.objects[{meta["camera"]!r}]
+sc.frame_set({int(meta["frame"])})
+passes.set_resolution(sc, 64, 36)
+np.save({str(got)!r}, passes.render_rest(sc, 1)[0])
+''', timeout=300)
+    again = np.load(got)
+    assert np.abs(again - g["rest"][..., :3]).mean() < 0.02 * max(1e-3, float(np.abs(again).mean()))
+    ck = checkpoint.load(shot_fit["model"])
+    assert ck["arch"]["target"] == ch.REST_TARGET
 
 
 def test_fit_shot_report_scores_exactly_the_withheld_frames(shot_fit):
@@ -134,6 +172,7 @@ sc = bpy.context.scene
 s = sc.ssgi
 s.fit_out = {str(tmp_path / "op.pt")!r}
 s.fit_shot = True
+s.fit_learn_rest = True
 s.fit_frame_end = 60
 r = {{}}
 try:
@@ -158,6 +197,6 @@ json.dump(r, open({str(res)!r}, "w"))
     assert "outside scene 'ripple''s frame range 1-20" in r.get("bad_error", "") or r.get("bad") == ["CANCELLED"]
     assert r["job_after_bad"] is False
     i = r["cmd"].index("--frames")
-    assert r["cmd"][i + 1] == "1-20"
-    assert {"fit_shot", "fit_frame_start", "fit_frame_end"} <= set(r["props"])
+    assert r["cmd"][i + 1] == "1-20" and "--learn-rest" in r["cmd"]
+    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest"} <= set(r["props"])
     assert "fit_shot" in r["props_off"] and "fit_frame_start" not in r["props_off"]

@@ -303,3 +303,69 @@ def test_a_shot_fit_fine_tunes_the_starting_checkpoint_towards_the_shot_bar_unle
     assert shot_defaults(told, "generic.pt", shot=True) == ([["xs", "unet", {}]], 30.0)
     empty = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[])
     assert shot_defaults(empty, "generic.pt", shot=False) == ([], None)  # an explicit [] is kept, not the default
+
+
+# ---- learning the rest (issue 16: EEVEE's rest caps a diffuse-part fit, docs/fit_shot.md)
+
+def test_the_rest_target_is_cycles_minus_eevees_rest_and_composes_back_to_cycles():
+    from ssgi.model.infer import compose
+    g = synthetic.with_rest(synthetic.sample(40, 24, 5, 6), 5)
+    y = normalize.target(g, ch.REST_TARGET)
+    np.testing.assert_array_equal(y, np.maximum(g["ref"][..., :3] - g["rest"][..., :3], 0))
+    assert (y > g["ref_diffuse"][..., :3] + 1e-3).any()  # it holds the glossy glow EEVEE's rest misses
+    # a model that predicted it exactly: the node's image is Cycles' image, which a perfect ref_diffuse one misses
+    np.testing.assert_allclose(compose.compose(y, g, ch.REST_TARGET), g["ref"][..., :3], rtol=1e-6, atol=1e-6)
+    assert not np.allclose(compose.compose(g["ref_diffuse"], g, ch.DIFFUSE_TARGET), g["ref"][..., :3], atol=1e-3)
+    # a non-finite rest counts 0
+    np.testing.assert_array_equal(normalize.target(dict(g, rest=np.full_like(g["rest"], np.nan)), ch.REST_TARGET),
+                                  np.maximum(g["ref"][..., :3], 0))
+    assert ch.adds_rest(ch.REST_TARGET) and ch.adds_rest(ch.DIFFUSE_TARGET) and not ch.adds_rest(ch.TARGET_GROUP)
+    assert compose.needs(ch.REST_TARGET) == ("rest",) and ch.target_groups(ch.REST_TARGET) == ("ref", "rest")
+
+
+@pytest.fixture(scope="module")
+def rest_views(tmp_path_factory):
+    return synthetic.make_dataset(tmp_path_factory.mktemp("rviews"), scenes=1, per_scene=10, w=48, h=32, seed=4,
+                                  rest=True)
+
+
+def test_a_fit_that_learns_the_rest_trains_and_scores_against_cycles_minus_the_rest(rest_views, generic, tmp_path):
+    """FitConfig(target="ref_minus_rest") (cli.py fit --learn-rest): the checkpoint learns and records that target,
+    the report's val PSNR is its own against Cycles minus EEVEE's rest, and the node score composes its prediction
+    with the view's rest against Cycles' whole image."""
+    from ssgi.model.infer import compose
+    out = tmp_path / "rest.pt"
+    cfg = fit.FitConfig(data=str(rest_views), out=str(out), train_keys=TRAIN, val_keys=VAL, test_keys=TEST,
+                        minutes=0.2, init=str(generic), ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0,
+                        drop_tol=-math.inf, bench_size="96x64", bench_repeats=1, target=ch.REST_TARGET, command="test")
+    res = fit.fit(cfg, log=lambda m: None)
+    ck = checkpoint.load(out)
+    assert ck["arch"]["target"] == ch.REST_TARGET
+    net = checkpoint.build_net(ck)
+    v = data.StoredSamples(rest_views, KEYS)
+    spec = tuple(ck["inputs"])
+    own = evaluate(net, v.samples(spec, VAL, target=ch.REST_TARGET))["val_psnr"]
+    assert own == pytest.approx(res["final"]["val"]["psnr"], abs=1e-6)
+    other = evaluate(net, v.samples(spec, VAL, target=ch.DIFFUSE_TARGET))["val_psnr"]
+    assert abs(own - other) > 0.05  # the two targets differ on these views: the report used the rest one
+    pred = predictor.load_predictor(out)
+    assert pred.target == ch.REST_TARGET
+    se, n = 0.0, 0
+    for k in TEST:
+        g = v.raw[k]
+        m = images.geometry_mask(g["depth"], g["normal"])
+        img = np.clip(compose.compose(pred.predict(g), g, pred.target)[m], 0, 1)
+        ref = np.clip(g["ref"][..., :3][m], 0, 1)
+        se, n = se + float(((img.astype(np.float64) - ref) ** 2).sum()), n + img.size
+    assert 10 * math.log10(n / se) == pytest.approx(res["final"]["test_node"]["psnr"], abs=1e-4)
+
+
+def test_a_fit_refuses_a_whole_image_target_and_views_without_rest(views, generic, tmp_path):
+    kw = dict(train_keys=TRAIN, val_keys=VAL, minutes=0.1, init=str(generic), ladder=[], threads=1, crop=32, batch=8,
+              min_run_s=1.0, command="test")
+    with pytest.raises(UserError, match="a fit learns ref_diffuse or ref_minus_rest"):
+        fit.FitConfig(data=str(views), out=str(tmp_path / "a.pt"), target=ch.TARGET_GROUP, **kw).check()
+    with pytest.raises(UserError, match="lack rest"):
+        fit.fit(fit.FitConfig(data=str(views), out=str(tmp_path / "b.pt"), target=ch.REST_TARGET, **kw),
+                log=lambda m: None)
+    assert not (tmp_path / "b.pt").exists()
