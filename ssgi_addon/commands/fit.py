@@ -25,7 +25,8 @@ def config(args) -> FitSceneConfig:
                           init=args.init, drop_tol=args.drop_tol, ref_samples=args.ref_samples,
                           ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop,
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
-                          frames=args.frames, learn_rest=args.learn_rest, command=command_line())
+                          frames=args.frames, learn_rest=args.learn_rest,
+                          rest_samples=args.rest_samples, command=command_line())
 
 
 def run(args) -> dict:
@@ -100,5 +101,8 @@ def register_cli(sub) -> None:
                    help="learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: "
                         "the model also makes up for what EEVEE's reflections miss on surfaces with a diffuse colour "
                         "(e.g. the glossy glow of an emissive lamp on default Principled walls); metal stays EEVEE's")
+    p.add_argument("--rest-samples", type=cliargs.positive_int, default=None, metavar="N",
+                   help="with --learn-rest: EEVEE samples of the views' rest (default: the scene's own, as the node "
+                        "renders it; fewer make the bake cheaper)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)

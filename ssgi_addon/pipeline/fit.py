@@ -87,6 +87,9 @@ class FitSceneConfig:
     # learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: the fitted
     # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit_shot.md, "Learning the rest")
     learn_rest: bool = False
+    # with learn_rest: the samples of the views' rest (None: the scene's own EEVEE samples, as the node renders it;
+    # fewer make the bake cheaper, docs/fit_shot.md)
+    rest_samples: int | None = None
     command: str | None = None  # recorded in the checkpoint
 
     def check(self) -> None:
@@ -104,6 +107,9 @@ class FitSceneConfig:
             raise UserError(f"--minutes must be > 0 (got {self.minutes})")
         if self.ref_samples < 1:
             raise UserError(f"--ref-samples {self.ref_samples}: must be positive")
+        if self.rest_samples is not None and (not self.learn_rest or self.rest_samples < 1):
+            raise UserError(f"--rest-samples {self.rest_samples}: give a positive count, with --learn-rest (only a fit "
+                            "that learns the rest bakes it)")
         fault = cliargs.model_file_fault(self.init) if self.init else None
         if fault:  # before any baking
             raise UserError(f"--init {self.init}: {fault}")
@@ -156,7 +162,7 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         size = tuple(cfg.size) if cfg.size else fviews.default_size(scene)
         plan.update(size=list(size), blend=str(blend))
         if cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
-            plan["rest_samples"] = int(scene.eevee.taa_render_samples)
+            plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
         work.mkdir(parents=True, exist_ok=True)
         # views of THIS file with THESE settings: an edited scene gets new views, an unchanged one resumes
         tag = fviews.views_tag(blend, plan)

@@ -258,7 +258,10 @@ def test_fit_stage_config_refuses_bad_settings_before_any_work(tmp_path):
                     (dict(out=str(tmp_path / "m.pt")), "--blend FILE"),
                     (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), views=3), "at least 4 views"),
                     (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), init=str(tmp_path / "x.pt")), "no such model"),
-                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet"]]), "--ladder")):
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet"]]), "--ladder"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), rest_samples=4), "with --learn-rest"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), learn_rest=True, rest_samples=0),
+                     "give a positive count")):
         with pytest.raises(UserError, match=msg):
             FitSceneConfig(**kw).check()
     assert not list(tmp_path.iterdir())
