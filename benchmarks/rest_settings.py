@@ -55,8 +55,9 @@ def main(argv=None) -> int:
     import bpy
     import numpy as np
 
-    from ssgi.model import images, metrics
+    from ssgi.model import channels as ch, images, metrics
     from ssgi.model.errors import UserError
+    from ssgi.model.infer.compose import compose
     from ssgi.ssgi_addon.blender import passes
     from ssgi.ssgi_addon.blender.blendfile import check_blend, open_blend
 
@@ -99,7 +100,7 @@ def main(argv=None) -> int:
         cy = passes.render_cycles(scene, a.spp, seed=100003 + f, denoise=True, groups=("ref", "ref_diffuse"))
         ref, rd = cy["ref"][..., :3], cy["ref_diffuse"][..., :3]
         rows[f] = {}
-        first_rest = None
+        first = None  # (rest, ceiling) of the first variant, for the PNG
         for name in a.variants:
             v = VARIANTS[name]
             kept = {k: getattr(opts, k) for k in TRACE_KEYS}
@@ -115,18 +116,18 @@ def main(argv=None) -> int:
                 for k, x in kept.items():
                     setattr(opts, k, x)
                 set_probe(False)
-            ceiling = np.maximum(rd + rest, 0.0)
+            ceiling = compose(rd, {"rest": rest}, ch.DIFFUSE_TARGET)  # as the node composes a perfect prediction
             s = metrics.score(ceiling, ref, mask, with_ssim=False, with_flip=False)
             err = float(np.abs(rest - (ref - rd))[mask].mean())
             rows[f][name] = dict(ceiling_psnr=round(s["psnr"], 2), rest_abs_err=round(err, 5), rest_s=round(secs, 1))
             print(f"frame {f} {name:18s} ceiling {s['psnr']:.2f} dB  |rest err| {err:.4f}  rest render {secs:.1f} s",
                   flush=True)
-            if first_rest is None:
-                first_rest = rest
+            if first is None:
+                first = (rest, ceiling)
         if out and f == frames[0]:
             crest = np.maximum(ref - rd, 0)
-            err = np.abs(np.clip(np.maximum(rd + first_rest, 0), 0, 1) - np.clip(ref, 0, 1))
-            sheet = np.concatenate([crest * 2, np.maximum(first_rest, 0) * 2, err * 4], axis=1)
+            err = np.abs(np.clip(first[1], 0, 1) - np.clip(ref, 0, 1))
+            sheet = np.concatenate([crest * 2, np.maximum(first[0], 0) * 2, err * 4], axis=1)
             images.write_png(out / f"rest_settings_{f:04d}.png", images.srgb8(sheet))
     means = {n: round(float(np.mean([rows[f][n]["ceiling_psnr"] for f in frames])), 2) for n in a.variants}
     for n, m in means.items():

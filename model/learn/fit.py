@@ -232,8 +232,7 @@ class Fitter:
         self.work.mkdir(parents=True, exist_ok=True)
         self.views = data.StoredSamples(cfg.data, list(cfg.train_keys) + list(cfg.val_keys) + list(cfg.test_keys),
                                         log=self.log)
-        if cfg.target:
-            ch.check_target(cfg.target)
+        if cfg.target:  # (a known target: cfg.check)
             lacking = [g for g in ch.target_groups(cfg.target) if g not in folder.stored_groups(self.views.manifest)]
             if lacking:
                 raise UserError(f"{cfg.data}: the views lack {', '.join(lacking)}, which target {cfg.target} is made "
