@@ -28,6 +28,7 @@ class SSGI_PT_fit(JobPanel, bpy.types.Panel):
             row = col.row()
             row.prop(s, "fit_frame_start")
             row.prop(s, "fit_frame_end")
+            col.prop(s, "fit_lightmap")
 
     def draw_result(self, layout, result):
         layout.label(text=f"Inputs: {', '.join(result.get('inputs') or [])}", icon="CHECKMARK")

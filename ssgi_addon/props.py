@@ -64,6 +64,10 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="Learn Cycles' image minus EEVEE's rest, not only its diffuse "
                                                        "part: the model also makes up for what EEVEE's reflections "
                                                        "miss on surfaces with a diffuse colour (cli.py fit --learn-rest)")
+    fit_lightmap: bpy.props.BoolProperty(name="Shot Lightmap", default=True,
+                                         description="With Fit the Shot: also fit a lightmap of the shot's diffuse light "
+                                                     "in world space beside the model, blended where the fit's validation "
+                                                     "views say it helps (off: cli.py fit --no-lightmap)")
     fit_target_psnr: bpy.props.FloatProperty(name="Target PSNR", default=0.0, min=0.0, soft_max=60.0,
                                              description="Held-out PSNR (dB) to reach; 0: the shipped model's + 2 dB")
     # Dataset panel (ops/bake_ops.py): Randomize Room and Bake Dataset (defaults as cli.py randomize / bake)

@@ -109,8 +109,9 @@ def verdict(final, gen, size, gain_db: float) -> str:
 
 # ------------------------------------------------------------------------------ a shot's withheld frames
 
-WITHHELD_METHODS = ("fitted", "generic", "cycles_1spp_oidn", "oracle_diffuse")
-WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "generic": "generic model (SSGI node)",
+WITHHELD_METHODS = ("fitted", "fitted_network", "generic", "cycles_1spp_oidn", "oracle_diffuse")
+WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "fitted_network": "fitted network alone, without its lightmap",
+                   "generic": "generic model (SSGI node)",
                    "cycles_1spp_oidn": "Cycles 1 spp + OIDN",
                    "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest"}
 SHOT_BAR_DB = 35.0  # issue 16: the fitted model on withheld frames
@@ -229,6 +230,15 @@ def report_markdown(rep: dict, model) -> str:
         p = rep["polish"]
         L += ["", f"Polish (the kept network, kept inputs, the rest of the budget): val {_n(p['before'])} -> "
               f"{_n(p['after'])} dB in {_n(p['seconds'], '{:.0f}')} s of training."]
+    if rep.get("lightmap"):
+        m = rep["lightmap"]
+        L += ["", "## Shot lightmap", "",
+              f"A world-space field of the diffuse light (model/infer/lightmap.py), {m['points']:,} points of the "
+              f"training views, {m['steps']:,} steps in {_n(m['seconds'], '{:.0f}')} s; blended into the network's "
+              f"diffuse part with weight **{m['lam']:g}** (0: not used), chosen on the validation views:", "",
+              "| weight | " + " | ".join(str(k) for k in m["val_psnr"]) + " |",
+              "|---|" + "---:|" * len(m["val_psnr"]),
+              "| val PSNR (dB) | " + " | ".join(_n(v) for v in m["val_psnr"].values()) + " |"]
     if rep.get("withheld"):
         L += withheld_markdown(rep["withheld"])
     L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]

@@ -229,6 +229,38 @@ def default_size(scene, width: int = 240) -> tuple[int, int]:
     return width, max(8, int(round(width * aspect)))
 
 
+def camera_matrices(scene, camera=None, size=None) -> dict:
+    """{"M": the camera's 4x4 world matrix, "P": its 4x4 projection at the render size (or ``size`` (w, h))} at the
+    scene's current frame, as lists: what model/infer/lightmap.world_points reads."""
+    import numpy as np
+    cam = camera or scene.camera
+    r = scene.render
+    w, h = size or (int(r.resolution_x * r.resolution_percentage / 100), int(r.resolution_y * r.resolution_percentage / 100))
+    P = cam.calc_matrix_camera(bpy_context_depsgraph(), x=int(w), y=int(h), scale_x=r.pixel_aspect_x,
+                               scale_y=r.pixel_aspect_y)
+    return {"M": np.array(cam.matrix_world, dtype=np.float64).tolist(), "P": np.array(P, dtype=np.float64).tolist()}
+
+
+def view_cameras(scene, data_dir, size) -> dict:
+    """{sample key: camera_matrices} of every baked view of ``data_dir`` (its camera at its frame), written to
+    ``data_dir/cameras.json`` (the shot lightmap's training reads it); the scene's frame is restored."""
+    from ...model import files
+    from ...model.dataset import folder
+    m = folder.open_folder(data_dir, scenes=True)
+    frame0, out = scene.frame_current, {}
+    try:
+        for key, meta in sorted(m["samples"].items(), key=lambda kv: int(kv[1].get("frame") or frame0)):
+            cam = scene.objects.get(sample_camera(meta) or "")
+            if cam is None:
+                raise UserError(f"{Path(data_dir) / 'manifest.json'}: view {key}'s camera "
+                                f"{sample_camera(meta)!r} is not in scene {scene.name!r}")
+            scene.frame_set(int(meta.get("frame") or frame0))
+            out[key] = camera_matrices(scene, cam, size)
+    finally:
+        scene.frame_set(frame0)
+    files.write_json(Path(data_dir) / "cameras.json", out)
+    return out
+
 
 def sample_camera(meta: dict) -> str | None:
     c = meta.get("camera")

@@ -23,10 +23,11 @@ def config(args) -> FitSceneConfig:
     return FitSceneConfig(out=args.out, blend=args.blend, data=args.data, plan=args.plan, scene=args.scene,
                           views=args.views, minutes=args.minutes, target_psnr=args.target_psnr, size=args.size,
                           init=args.init, drop_tol=args.drop_tol, ref_samples=args.ref_samples,
-                          ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop,
+                          ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop, batch=args.batch,
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
                           frames=args.frames, learn_rest=args.learn_rest,
-                          rest_samples=args.rest_samples, command=command_line())
+                          rest_samples=args.rest_samples, lightmap=not args.no_lightmap,
+                          command=command_line())
 
 
 def run(args) -> dict:
@@ -93,10 +94,13 @@ def register_cli(sub) -> None:
     p.add_argument("--plan", default=None, metavar="JSON", help="with --data: the views_plan.json of that bake")
     p.add_argument("--ladder", default=None, metavar="JSON", help='sizes to try, e.g. \'[["xs", "unet", {"widths": [8, 12, 16], "convs": [1, 1, 1]}]]\'')
     p.add_argument("--crop", type=cliargs.positive_int, default=None, help="training crop size (default 64)")
+    p.add_argument("--batch", type=cliargs.positive_int, default=None, help="training batch (default 16)")
     p.add_argument("--min-run-seconds", type=cliargs.positive_float, default=None, metavar="S",
                    help="shortest training run worth starting (default 5; lower only for tiny test budgets)")
     p.add_argument("--threads", type=cliargs.positive_int, default=None, help="torch threads")
     p.add_argument("--seed", type=int, default=D.seed)
+    p.add_argument("--no-lightmap", action="store_true",
+                   help="a shot fit (--frames) fits no lightmap beside the model (model/infer/lightmap.py)")
     p.add_argument("--learn-rest", action="store_true",
                    help="learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: "
                         "the model also makes up for what EEVEE's reflections miss on surfaces with a diffuse colour "

@@ -44,6 +44,10 @@ MIN_FIT_MINUTES = 0.5
 # within its 15-minute budget; two seeds agree to 36.8-48.9 dB at this setting (docs/bake.md), far above the
 # fitted models' error (25-35 dB).
 FIT_REF_SAMPLES = 16
+# a shot's lightmap trains for this share of the training budget, at most LIGHTMAP_MAX_S (its loss flattens after
+# about 2 minutes on the benchmark shots, docs/fit_shot.md)
+LIGHTMAP_SHARE = 0.2
+LIGHTMAP_MAX_S = 150.0
 
 
 # ------------------------------------------------------------------------------------------------- the stage
@@ -80,6 +84,7 @@ class FitSceneConfig:
     ref_samples: int = FIT_REF_SAMPLES  # Cycles samples of the views' references (+ OIDN)
     ladder: list | None = None  # [[name, variant, {overrides}], ...] (None: model.learn.fit.LADDER)
     crop: int | None = None  # training crop (None: FitConfig's)
+    batch: int | None = None  # training batch (None: FitConfig's)
     min_run_s: float | None = None  # shortest training run worth starting (None: FitConfig's)
     threads: int | None = None  # torch threads
     seed: int = 0
@@ -90,6 +95,8 @@ class FitSceneConfig:
     # with learn_rest: the samples of the views' rest (None: the scene's own EEVEE samples, as the node renders it;
     # fewer make the bake cheaper, docs/fit_shot.md)
     rest_samples: int | None = None
+    # a shot fit also fits a lightmap (model/infer/lightmap.py) beside the model, when its views allow (off: --no-lightmap)
+    lightmap: bool = True
     command: str | None = None  # recorded in the checkpoint
 
     def check(self) -> None:
@@ -176,6 +183,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         bake_s = time.perf_counter() - t0
         log(f"fit: views baked in {bake_s / 60:.2f} min")
     train, val, test = fviews.split_views(data_dir, plan)
+    cameras = (_view_cameras(None if cfg.data else scene, data_dir, plan, log)
+               if cfg.lightmap and plan and plan.get("test_frames") else None)
 
     from ...model.learn import fit as mfit
     from ..blender.node import DEFAULT_MODEL
@@ -184,6 +193,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     left = 60.0 * cfg.minutes - (time.perf_counter() - t0)
     floor = max(0.1 * 60.0 * cfg.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
     fit_minutes = max(left, floor) / 60.0
+    lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
+    fit_minutes -= lightmap_s / 60.0
     if left < floor:
         log(f"fit: the bake took {bake_s / 60:.2f} of {cfg.minutes:g} min; fitting gets {fit_minutes:.2f} min "
             "(the whole fit will run over the budget)")
@@ -196,9 +207,22 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         mcfg.ladder = [list(r) for r in ladder]
     if cfg.crop:
         mcfg.crop = cfg.crop
+    if cfg.batch:
+        mcfg.batch = cfg.batch
     if cfg.min_run_s:
         mcfg.min_run_s = cfg.min_run_s
     res = mfit.fit(mcfg, callback=progress, should_stop=should_stop)
+    from ...model.infer import lightmap as ilm
+    stale = ilm.path_for(out)
+    if stale.exists():  # a lightmap beside the model belongs to the model written now, or to none
+        stale.unlink()
+    if cameras and res.get("status") == "done":
+        report(dict(phase="lightmap", message="fitting the shot's lightmap", progress=1.0))
+        try:  # the model is written: a lightmap that cannot be fitted costs the shot its lightmap, not its model
+            res["lightmap"] = fit_shot_lightmap(data_dir, cameras, train, val, res["model"],
+                                                mcfg.target or ch.DIFFUSE_TARGET, lightmap_s, cfg.seed, log)
+        except UserError as e:
+            log(f"fit: no lightmap: {e}")
     fit_s = time.perf_counter() - t0  # the fit: bake + training + its report (the budget's)
     w = None
     if withheld and res.get("status") == "done":
@@ -221,11 +245,46 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         rep.update(bake_minutes=res["bake_minutes"], total_minutes=res["total_minutes"])
         if w is not None:
             rep.update(withheld=w, verdict=res["verdict"], fit_verdict=rep.get("verdict"))
+        if res.get("lightmap"):
+            rep.update(lightmap=res["lightmap"])
         fit_report.write(rep, res["model"])
     return res
 
 
 # ------------------------------------------------------------------------------------------------- a shot
+
+def _view_cameras(scene, data_dir, plan: dict, log) -> dict | None:
+    """The views' camera matrices (``data_dir/cameras.json``; made from ``scene``, or from the views' .blend copy
+    beside the folder, when missing), or None (logged) when they cannot be had: the fit then has no lightmap."""
+    from ..blender import views as fviews
+    cj = Path(data_dir) / "cameras.json"
+    if cj.is_file():
+        return json.loads(cj.read_text())
+    size = plan.get("size")
+    if scene is None:  # views baked before: their .blend copy lies beside the folder (views-TAG.blend)
+        from ..blender.blendfile import open_blend, pick_scene
+        wblend = Path(str(Path(data_dir)) + ".blend")
+        if not wblend.is_file():
+            log(f"fit: no lightmap: {cj} is missing and so is the views' .blend {wblend}")
+            return None
+        open_blend(wblend)
+        scene = pick_scene(wblend, plan.get("scene"))
+    return fviews.view_cameras(scene, data_dir, tuple(size) if size else None)
+
+
+def fit_shot_lightmap(data_dir, cameras: dict, train, val, model, target: str, seconds: float, seed: int,
+                      log) -> dict:
+    """Fit the lightmap of a shot (model/learn/lightmap.py) and write it beside ``model`` (its weight chosen on the
+    validation views; a weight of 0 is written too, and the node then ignores it). Returns its report."""
+    from ...model.infer import lightmap as ilm
+    from ...model.infer.predictor import load_predictor
+    from ...model.learn import lightmap as llm
+    predictor = load_predictor(model, runtime="torch")
+    field, rep = llm.fit_lightmap(data_dir, cameras, train, val, predictor, target, seconds, seed=seed, log=log)
+    path = field.save(ilm.path_for(model))
+    rep.update(file=str(path))
+    return rep
+
 
 WITHHELD_HOW = ("The fitted model through RenderSession (the SSGI node's render path: EEVEE passes at the file's "
                 "samples, working resolution, compose with EEVEE's own rest); the generic model on the same passes "
@@ -237,9 +296,10 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
     (w, h): the SSGI node's image with ``model`` (RenderSession) and with ``generic`` (same passes), Cycles
     1 spp + OIDN, the reference (Cycles ``ref_samples`` spp + OIDN, another seed) and, for a diffuse-part
     model, that reference's diffuse part composed with EEVEE's rest as the node composes (``oracle_diffuse``:
-    what a perfect diffuse prediction would score; the rest's error no fit can remove). Returns
-    [{frame, ref, mask, images, seconds}] for ``fit_report.score_withheld``; with ``out_dir``, a PNG sheet a
-    frame (reference | fitted | generic | Cycles 1 spp + OIDN)."""
+    what a perfect diffuse prediction would score; the rest's error no fit can remove) and, when the model has a
+    lightmap, the fitted network alone without it (``fitted_network``). Returns [{frame, ref, mask, images,
+    seconds}] for ``fit_report.score_withheld``; with ``out_dir``, a PNG sheet a frame (reference | fitted |
+    [fitted network alone |] generic | Cycles 1 spp + OIDN)."""
     import numpy as np
 
     from ...model import channels as ch, images
@@ -271,6 +331,12 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
     for info in session.iter_frames():
         g, f = info["groups"], int(info["frame"])
         imgs, secs = {"fitted": info["prediction"]}, {"fitted": info["t_total"]}
+        if session.lightmap is not None:  # what the lightmap adds: the same network on the same passes without it
+            t = time.perf_counter()
+            want = ch.required_groups(session.spec) + ("normal", "depth", "albedo")
+            p = session.predictor.predict({k: g[k] for k in dict.fromkeys(want) if k in g})
+            imgs["fitted_network"] = compose(p, g, scene.camera.data.clip_end, session.target)
+            secs["fitted_network"] = info["t_passes"] + time.perf_counter() - t
         if gen is not None:
             t = time.perf_counter()
             want = ch.required_groups(tuple(gen.spec)) + ("normal", "depth", "albedo")
@@ -291,7 +357,7 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
         log(f"fit: withheld frame {f}: " + ", ".join(f"{k} {v:.1f} s" for k, v in secs.items()))
         if out_dir is not None:
             Path(out_dir).mkdir(parents=True, exist_ok=True)
-            row = [ref] + [imgs[k] for k in ("fitted", "generic", "cycles_1spp_oidn") if k in imgs]
+            row = [ref] + [imgs[k] for k in ("fitted", "fitted_network", "generic", "cycles_1spp_oidn") if k in imgs]
             sheet = np.concatenate([np.pad(np.asarray(x, np.float32), ((0, 0), (0, 2), (0, 0))) for x in row], axis=1)
             images.write_png(Path(out_dir) / f"frame_{f:04d}.png", images.srgb8(sheet))
     return out

@@ -187,6 +187,11 @@ class RenderSession:
         if self.temporal:
             self.groups += ("vector",)
         self.history = render_temporal.History(self) if self.temporal else None
+        # a shot fit's lightmap beside the model (model/infer/lightmap.py): blended into the diffuse part
+        from ...model.infer import lightmap
+        self.lightmap = lightmap.load_beside(self.model_path) if ch.adds_rest(self.target) else None
+        if self.lightmap is not None:
+            log(f"lightmap {lightmap.path_for(self.model_path).name}: weight {self.lightmap.lam:g}")
         self.cancelled = False
         self.results: list[dict] = []
 
@@ -203,7 +208,12 @@ class RenderSession:
 
     def _predict(self, groups: dict):
         want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
-        return self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+        pred = self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+        if self.lightmap is not None:  # the camera at the current frame, at the render size
+            from ..blender.views import camera_matrices
+            c = camera_matrices(self.scene)
+            pred = self.lightmap.apply(pred, groups, c["M"], c["P"], factor=self.predictor.last_factor)
+        return pred
 
     def _stateless(self, frame: int):
         """(groups, stateless prediction) of ``frame``: what its own render predicts (the temporal history)."""

@@ -130,7 +130,9 @@ def test_fit_shot_report_scores_exactly_the_withheld_frames(shot_fit):
     w = rep["withheld"]
     want = [3, 7, 11, 14, 18]
     assert w["frames"] == want and w["size"] == [64, 36] and w["ref_samples"] == 2
-    assert list(w["methods"]) == ["fitted", "generic", "cycles_1spp_oidn", "oracle_diffuse"]
+    lam = rep["lightmap"]["lam"]  # the shot's lightmap (test below): with a weight > 0 the network alone is scored too
+    assert list(w["methods"]) == ["fitted"] + (["fitted_network"] if lam > 0 else []) + [
+        "generic", "cycles_1spp_oidn", "oracle_diffuse"]
     for m, r in w["methods"].items():
         assert sorted(map(int, r["per_frame"])) == want and 5 < r["psnr"] < 80
         assert (r["seconds"] is None) == (m == "oracle_diffuse")
@@ -145,6 +147,82 @@ def test_fit_shot_report_scores_exactly_the_withheld_frames(shot_fit):
     sheets = sorted(p.name for p in (shot_fit["dir"] / "shot.fit" / "withheld").glob("*.png"))
     assert sheets == [f"frame_{f:04d}.png" for f in want]
     assert s["withheld_minutes"] > 0 and s["total_minutes"] > 0
+
+
+def test_fit_shot_fits_a_lightmap_and_the_node_blends_it(shot_fit, tmp_path):
+    """The shot's lightmap (model/infer/lightmap.py): the fit stores every view's camera matrices, which place a
+    world point where Blender's own camera projection does; it writes the lightmap beside the model with a weight
+    chosen on the validation views; and the node's render path blends a model's lightmap exactly where it may
+    (weight x albedo x light + the rest), keeping the network's image elsewhere."""
+    import shutil
+
+    import numpy as np
+
+    from ssgi.model.evaluate import fit_report
+    from ssgi.model.infer import lightmap as lm
+    from ssgi.model.learn import lightmap as llm
+    work = shot_fit["dir"] / "shot.fit"
+    (views,) = [p for p in work.glob("views-*") if p.is_dir()]
+    cams = json.loads((views / "cameras.json").read_text())
+    from ssgi.model.dataset import folder as data_folder
+    m = data_folder.open_folder(views, scenes=True)
+    assert sorted(cams) == sorted(m["samples"])
+    key, meta = sorted(m["samples"].items())[-1]
+    got = tmp_path / "proj.json"
+    run_py(f'''
+import bpy, json
+from bpy_extras.object_utils import world_to_camera_view
+bpy.ops.wm.open_mainfile(filepath={str(sorted(work.glob("views-*.blend"))[0])!r})
+sc = bpy.context.scene
+sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 64, 36, 100
+sc.frame_set({int(meta["frame"])})
+cam = sc.objects[{meta["camera"]!r}]
+pts = [list(o.matrix_world.translation) for o in sc.objects if o.type == "MESH"]
+json.dump(dict(pts=pts, ndc=[list(world_to_camera_view(sc, cam, __import__("mathutils").Vector(p))) for p in pts]),
+          open({str(got)!r}, "w"))
+''', timeout=120)
+    d = json.loads(got.read_text())
+    u, v, z = lm.project(np.array(d["pts"]), cams[key]["M"], cams[key]["P"], 64, 36)
+    ndc = np.array(d["ndc"])  # Blender: x right 0..1, y up 0..1, z the depth along the view axis
+    assert np.abs(u - (ndc[:, 0] * 64 - 0.5)).max() < 1e-3 and np.abs(v - ((1 - ndc[:, 1]) * 36 - 0.5)).max() < 1e-3
+    assert np.allclose(z, ndc[:, 2], rtol=1e-5)
+    # the fit's lightmap and its report
+    rep = json.loads(fit_report.report_paths(shot_fit["model"])[0].read_text())["lightmap"]
+    assert rep["lam"] in llm.LAMBDAS and sorted(map(float, rep["val_psnr"])) == sorted(llm.LAMBDAS)
+    assert rep["val_psnr"][str(rep["lam"])] == max(rep["val_psnr"].values()) and rep["points"] > 1000
+    assert "## Shot lightmap" in fit_report.report_paths(shot_fit["model"])[1].read_text()
+    field = lm.Lightmap.load(lm.path_for(shot_fit["model"]))
+    assert field.lam == rep["lam"] and rep["file"] == str(lm.path_for(shot_fit["model"]))
+    # the node: a copy of the model with a lightmap of weight 1 that answers 0.5 everywhere
+    model = tmp_path / "lm.pt"
+    shutil.copy(shot_fit["model"], model)
+    din = 6 + 6 * lm.NFREQ
+    lm.Lightmap([(np.zeros((3, din)), np.full(3, 0.5))], [0, 0, 0], [1, 1, 1], lm.NFREQ, 1.0).save(lm.path_for(model))
+    out = tmp_path / "node.npz"
+    run_py(f'''
+import bpy, numpy as np
+from ssgi.ssgi_addon.blender.compositor import setup_scene
+from ssgi.ssgi_addon.pipeline.render import RenderSession, compose
+from ssgi.model import channels as ch
+bpy.ops.wm.open_mainfile(filepath={str(shot_fit["blend"])!r})
+sc = bpy.context.scene
+setup_scene(sc, {str(model)!r})
+s = RenderSession(sc, frames=[10], model={str(model)!r}, write=False, keep_groups=True)
+assert s.lightmap is not None and s.lightmap.lam == 1.0
+info = next(s.iter_frames())
+g = info["groups"]
+want = ch.required_groups(s.spec) + ("normal", "depth", "albedo")
+net = compose(s.predictor.predict({{k: g[k] for k in dict.fromkeys(want) if k in g}}), g, sc.camera.data.clip_end, s.target)
+np.savez({str(out)!r}, img=info["prediction"], net=net, **{{k: g[k] for k in ("albedo", "depth", "normal", "rest")}})
+''', timeout=600)
+    r = np.load(out)
+    g = {k: r[k] for k in ("albedo", "depth", "normal")}
+    w = lm.blend_weight(g, 1.0) > 0
+    assert 0.2 < w.mean() < 0.98  # the flat faces are blended, the edges and the sky are not
+    expect = np.maximum(r["rest"][..., :3] + 0.5 * r["albedo"][..., :3], 0)
+    assert np.abs(r["img"][w] - expect[w]).max() < 1e-4
+    assert np.abs(r["img"][~w] - r["net"][~w]).max() < 1e-5
+    assert np.abs(r["net"][w] - expect[w]).mean() > 0.01  # the lightmap changed what the network alone shows
 
 
 def test_fit_shot_bad_frame_ranges_are_one_line_errors(shot_fit, tmp_path):
@@ -186,6 +264,12 @@ job = jobs.get("fit")
 r["cmd"] = job.cmd
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
+s.fit_lightmap = False
+assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}
+job = jobs.get("fit")
+r["cmd_nolm"] = job.cmd
+bpy.ops.ssgi.cancel_job(job="fit")
+job.wait(60)
 from tests import ui_recorder
 from ssgi.panels.fit_panel import SSGI_PT_fit
 r["props"] = ui_recorder.draw(SSGI_PT_fit).props()
@@ -198,5 +282,6 @@ json.dump(r, open({str(res)!r}, "w"))
     assert r["job_after_bad"] is False
     i = r["cmd"].index("--frames")
     assert r["cmd"][i + 1] == "1-20" and "--learn-rest" in r["cmd"]
-    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest"} <= set(r["props"])
-    assert "fit_shot" in r["props_off"] and "fit_frame_start" not in r["props_off"]
+    assert "--no-lightmap" not in r["cmd"] and "--no-lightmap" in r["cmd_nolm"]  # the shot lightmap: on by default
+    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest", "fit_lightmap"} <= set(r["props"])
+    assert "fit_shot" in r["props_off"] and "fit_frame_start" not in r["props_off"] and "fit_lightmap" not in r["props_off"]

@@ -1,0 +1,162 @@
+"""Fit a shot's lightmap (model/infer/lightmap.py) to its views, and choose how much of it the node uses (bpy-free).
+
+``fit_lightmap(data_dir, cameras, train, val, model, target, seconds)``:
+
+1. **Points.** Every geometry pixel of the training views whose albedo exceeds ``lightmap.ALBEDO_MIN`` in every
+   channel gives a world position and normal (``lightmap.world_points`` with the view's camera matrices, which the
+   fit stores in ``cameras.json`` beside the views) and a diffuse light: the fit's target (Cycles' diffuse part, or
+   Cycles minus EEVEE's rest with --learn-rest) divided by the albedo.
+2. **Training.** An MLP (``HIDDEN`` wide, ``LAYERS`` hidden layers, ReLU) on ``lightmap.encode``'s features, Adam,
+   batches of ``BATCH`` random points, the relative L1 loss |y' - y| / (1 + y), the learning rate on a cosine over
+   the time budget. Bounded by ``seconds``; nothing else runs meanwhile.
+3. **The blend weight.** On the validation views (held out from both the network and the lightmap), the fitted
+   network's diffuse part (as the node predicts it) is blended with the lightmap at each weight of ``LAMBDAS``
+   (``Lightmap.apply``: edges, black albedo and the sky keep the network) and composed as the node composes;
+   the weight with the best pooled PSNR against the views' references is kept (0: the lightmap is not used).
+
+Measured on the two benchmark shots in docs/fit_shot.md (session 15).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import torch
+
+from .. import channels as ch, metrics
+from ..dataset import exrio, folder
+from ..errors import UserError
+from ..infer import lightmap as lm
+
+HIDDEN = 128
+LAYERS = 3
+BATCH = 4096
+LR = 2e-3
+LAMBDAS = (0.0, 0.25, 0.5, 0.75, 1.0)
+MIN_POINTS = 1000
+
+
+def view_target(groups: dict, target: str) -> np.ndarray:
+    """The fit's target of a view (channels.TARGET_SOURCES: ref_minus_rest = max(ref - rest, 0))."""
+    if target == ch.REST_TARGET:
+        return np.maximum(groups["ref"][..., :3] - groups["rest"][..., :3], 0.0)
+    return groups[target][..., :3]
+
+
+def points(data_dir, cameras: dict, keys, target: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Nx3 positions, Nx3 normals, Nx3 diffuse light) of the views ``keys`` (module doc, step 1)."""
+    P_, N_, Y_ = [], [], []
+    need = ("albedo", "normal", "depth") + ch.TARGET_SOURCES.get(target, (target,))
+    for k in keys:
+        if str(k) not in cameras:
+            raise UserError(f"{data_dir}: view {k} has no camera matrices in cameras.json")
+        g = exrio.read_sample(folder.sample_path(data_dir, str(k)), need)
+        c = cameras[str(k)]
+        pw, nw = lm.world_points(g["depth"], g["normal"], c["M"], c["P"])
+        alb = g["albedo"][..., :3]
+        from ..images import geometry_mask
+        ok = geometry_mask(g["depth"], g["normal"]) & (alb > lm.ALBEDO_MIN).all(-1)
+        y = view_target(g, target) / np.maximum(alb, lm.ALBEDO_MIN)
+        ok &= np.isfinite(y).all(-1) & np.isfinite(pw).all(-1)
+        P_.append(pw[ok]); N_.append(nw[ok]); Y_.append(y[ok].astype(np.float32))
+    return np.concatenate(P_), np.concatenate(N_), np.concatenate(Y_)
+
+
+class _Field(torch.nn.Module):
+    def __init__(self, lo, hi, nfreq: int, hidden: int = HIDDEN, layers: int = LAYERS):
+        super().__init__()
+        self.register_buffer("lo", torch.tensor(np.asarray(lo, np.float32)))
+        self.register_buffer("hi", torch.tensor(np.asarray(hi, np.float32)))
+        self.nfreq = nfreq
+        dims = [6 + 6 * nfreq] + [hidden] * layers + [3]
+        self.layers = torch.nn.ModuleList(torch.nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
+
+    def forward(self, p, n):
+        x = (p - self.lo) / torch.clamp(self.hi - self.lo, min=1e-6) * 2.0 - 1.0
+        fs = [x, n]
+        for i in range(self.nfreq):
+            fs += [torch.sin(x * (math.pi * 2 ** i)), torch.cos(x * (math.pi * 2 ** i))]
+        h = torch.cat(fs, 1)
+        for i, layer in enumerate(self.layers):
+            h = layer(h)
+            if i < len(self.layers) - 1:
+                h = torch.relu(h)
+        return h
+
+
+def train_field(pos: np.ndarray, nrm: np.ndarray, y: np.ndarray, seconds: float, seed: int = 0,
+                nfreq: int = lm.NFREQ, log=None, steps: int | None = None) -> tuple[lm.Lightmap, dict]:
+    """Train the MLP on the points for ``seconds`` (module doc, step 2), or ``steps`` steps when that comes first
+    (the learning rate's cosine then runs over the steps); returns (Lightmap with lam 0, stats)."""
+    if len(pos) < MIN_POINTS:
+        raise UserError(f"lightmap: {len(pos)} usable pixels in the training views, at least {MIN_POINTS} needed")
+    torch.manual_seed(seed)
+    lo, hi = pos.min(0), pos.max(0)
+    net = _Field(lo, hi, nfreq)
+    opt = torch.optim.Adam(net.parameters(), LR)
+    P, N, Y = torch.from_numpy(pos), torch.from_numpy(nrm), torch.from_numpy(y)
+    g = torch.Generator().manual_seed(seed)
+    t0, step, run = time.perf_counter(), 0, []
+    while True:
+        el = time.perf_counter() - t0
+        if el >= seconds or (steps is not None and step >= steps):
+            break
+        done = max(el / max(seconds, 1e-6), step / steps if steps else 0.0)
+        for grp in opt.param_groups:
+            grp["lr"] = LR * 0.5 * (1.0 + math.cos(math.pi * min(done, 1.0)))
+        i = torch.randint(0, len(P), (BATCH,), generator=g)
+        loss = ((net(P[i], N[i]) - Y[i]).abs() / (1.0 + Y[i])).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        step += 1
+        run.append(float(loss.detach()))
+        if log and step % 1000 == 0:
+            log(f"lightmap: step {step}, loss {np.mean(run[-200:]):.4f}, {el:.0f} s")
+    weights = [(layer.weight.detach().numpy(), layer.bias.detach().numpy()) for layer in net.layers]
+    stats = dict(points=int(len(pos)), steps=step, seconds=time.perf_counter() - t0,
+                 loss=float(np.mean(run[-200:])) if run else None, hidden=HIDDEN, layers=LAYERS, nfreq=nfreq)
+    return lm.Lightmap(weights, lo, hi, nfreq, 0.0, meta=stats), stats
+
+
+def choose_weight(field: lm.Lightmap, data_dir, cameras: dict, keys, predictor, target: str) -> tuple[float, dict]:
+    """(lam, {lam: pooled PSNR}) on the validation views ``keys`` (module doc, step 3). ``predictor``: the fitted
+    model as the node runs it (``.predict(groups)`` -> diffuse part). Each blend is scored against the fit's target
+    over the geometry pixels, as the fit's validation scores the network: the node adds the same EEVEE rest to
+    every blend."""
+    from ..images import geometry_mask
+    want = tuple(dict.fromkeys(tuple(getattr(predictor, "required", ())) + ("albedo", "normal", "depth")))
+    pools = {lam: metrics.PooledPSNR() for lam in LAMBDAS}
+    for k in keys:
+        src = ch.TARGET_SOURCES.get(target, (target,))
+        g = exrio.read_sample(folder.sample_path(data_dir, str(k)), tuple(dict.fromkeys(want + src)))  # UserError names a missing group
+        c = cameras[str(k)]
+        part = predictor.predict({w: g[w] for w in want})
+        light = field.light(g, c["M"], c["P"])
+        mask = geometry_mask(g["depth"], g["normal"])
+        y = view_target(g, target)[mask]
+        for lam in LAMBDAS:
+            w = lm.blend_weight(g, lam)[..., None]
+            p = w * g["albedo"][..., :3] * light + (1.0 - w) * part
+            pools[lam].add(p[mask], y)
+    scores = {lam: pools[lam].value for lam in LAMBDAS}
+    best = max(LAMBDAS, key=lambda lam: (scores[lam], -lam))
+    return best, scores
+
+
+def fit_lightmap(data_dir, cameras: dict, train, val, predictor, target: str, seconds: float, seed: int = 0,
+                 log=None) -> tuple[lm.Lightmap, dict]:
+    """Points, training, blend weight (module doc). Returns (Lightmap with its lam, report dict)."""
+    t0 = time.perf_counter()
+    pos, nrm, y = points(data_dir, cameras, train, target)
+    field, stats = train_field(pos, nrm, y, max(seconds - (time.perf_counter() - t0), 1.0), seed=seed, log=log)
+    lam, scores = choose_weight(field, data_dir, cameras, val, predictor, target)
+    field.lam = lam
+    rep = dict(stats, lam=lam, val_psnr={str(k): round(v, 3) for k, v in scores.items()},
+               seconds_total=time.perf_counter() - t0, target=target)
+    field.meta = rep
+    if log:
+        log(f"lightmap: {stats['points']} points, {stats['steps']} steps; val PSNR by weight "
+            + ", ".join(f"{k:g}: {v:.2f}" for k, v in scores.items()) + f"; weight {lam:g}")
+    return field, rep
