@@ -212,10 +212,9 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     if cfg.min_run_s:
         mcfg.min_run_s = cfg.min_run_s
     res = mfit.fit(mcfg, callback=progress, should_stop=should_stop)
-    from ...model.infer import lightmap as ilm
-    stale = ilm.path_for(out)
-    if stale.exists():  # a lightmap beside the model belongs to the model written now, or to none
-        stale.unlink()
+    if res.get("status") == "done":  # a new model is written: a lightmap beside it belongs to it, or there is none
+        from ...model.infer import lightmap as ilm
+        ilm.path_for(res["model"]).unlink(missing_ok=True)
     if cameras and res.get("status") == "done":
         report(dict(phase="lightmap", message="fitting the shot's lightmap", progress=1.0))
         try:  # the model is written: a lightmap that cannot be fitted costs the shot its lightmap, not its model
@@ -333,9 +332,7 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
         imgs, secs = {"fitted": info["prediction"]}, {"fitted": info["t_total"]}
         if session.lightmap is not None:  # what the lightmap adds: the same network on the same passes without it
             t = time.perf_counter()
-            want = ch.required_groups(session.spec) + ("normal", "depth", "albedo")
-            p = session.predictor.predict({k: g[k] for k in dict.fromkeys(want) if k in g})
-            imgs["fitted_network"] = compose(p, g, scene.camera.data.clip_end, session.target)
+            imgs["fitted_network"] = compose(session.predict_network(g), g, scene.camera.data.clip_end, session.target)
             secs["fitted_network"] = info["t_passes"] + time.perf_counter() - t
         if gen is not None:
             t = time.perf_counter()

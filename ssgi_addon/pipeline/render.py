@@ -206,9 +206,14 @@ class RenderSession:
             raise UserError(f"the pass render returned no {', '.join(missing)} for scene {self.scene.name!r}")
         return groups
 
-    def _predict(self, groups: dict):
+    def predict_network(self, groups: dict):
+        """The network's prediction of a frame's passes (at the working resolution, brought back), without the
+        lightmap."""
         want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
-        pred = self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+        return self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+
+    def _predict(self, groups: dict):
+        pred = self.predict_network(groups)
         if self.lightmap is not None:  # the camera at the current frame, at the render size
             from ..blender.views import camera_matrices
             c = camera_matrices(self.scene)

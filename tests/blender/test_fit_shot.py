@@ -203,7 +203,6 @@ json.dump(dict(pts=pts, ndc=[list(world_to_camera_view(sc, cam, __import__("math
 import bpy, numpy as np
 from ssgi.ssgi_addon.blender.compositor import setup_scene
 from ssgi.ssgi_addon.pipeline.render import RenderSession, compose
-from ssgi.model import channels as ch
 bpy.ops.wm.open_mainfile(filepath={str(shot_fit["blend"])!r})
 sc = bpy.context.scene
 setup_scene(sc, {str(model)!r})
@@ -211,8 +210,7 @@ s = RenderSession(sc, frames=[10], model={str(model)!r}, write=False, keep_group
 assert s.lightmap is not None and s.lightmap.lam == 1.0
 info = next(s.iter_frames())
 g = info["groups"]
-want = ch.required_groups(s.spec) + ("normal", "depth", "albedo")
-net = compose(s.predictor.predict({{k: g[k] for k in dict.fromkeys(want) if k in g}}), g, sc.camera.data.clip_end, s.target)
+net = compose(s.predict_network(g), g, sc.camera.data.clip_end, s.target)
 np.savez({str(out)!r}, img=info["prediction"], net=net, **{{k: g[k] for k in ("albedo", "depth", "normal", "rest")}})
 ''', timeout=600)
     r = np.load(out)
