@@ -6,16 +6,20 @@
 MODEL.fit is the fit's work folder (views_plan.json, the views). Writes MODEL.lightmap.npz, the sheets in
 MODEL.withheld/ and MODEL.pt.after.json; prints the lightmap's report and each method's PSNR / SSIM / per frame.
 """
-import sys, json, time
+import argparse, json, time
 import _bootstrap  # noqa: F401  (the checkout as package "ssgi")
 from pathlib import Path
 from ssgi.ssgi_addon.pipeline import fit as pf
 from ssgi.ssgi_addon.blender import views as fviews
 from ssgi.model.evaluate import fit_report
 from ssgi.model import channels as ch
-if len(sys.argv) != 5 or sys.argv[4] not in ("ref_diffuse", "ref_minus_rest"):
-    sys.exit("usage: lightmap_refit.py MODEL.fit MODEL.pt SECONDS ref_diffuse|ref_minus_rest")
-fitdir, model, seconds, target = Path(sys.argv[1]), sys.argv[2], float(sys.argv[3]), sys.argv[4]
+ap = argparse.ArgumentParser(description="Re-fit a shot model's lightmap and score its withheld frames.")
+ap.add_argument("fitdir", type=Path, help="the fit's work folder (MODEL.fit: views_plan.json, the views)")
+ap.add_argument("model", help="the fitted model (MODEL.pt)")
+ap.add_argument("seconds", type=float, help="the lightmap's training budget in seconds")
+ap.add_argument("target", choices=("ref_diffuse", "ref_minus_rest"), help="what the lightmap learns")
+a = ap.parse_args()
+fitdir, model, seconds, target = a.fitdir, a.model, a.seconds, a.target
 plan = json.loads((fitdir / "views_plan.json").read_text())
 data = [p for p in fitdir.glob("views-*") if p.is_dir()][0]
 train, val, test = fviews.split_views(data, plan)
