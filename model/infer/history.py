@@ -4,14 +4,15 @@ killed run, find their predecessors without rendering them again (model/infer/te
 window of stateless predictions and not a recursive filter).
 
 An entry (``make_entry``): ``light`` HxWx3 float32 (the diffuse part / albedo), and ``depth``, ``normal``,
-``albedo``, ``vector`` as float16 (EEVEE's passes hold half-float precision already; the camera-space normals
+``albedo``, ``vector`` and, when the frame renders one, its direct light (``direct_light``: ``DIRECT_LIGHT``) as
+float16 (EEVEE's passes hold half-float precision already; the camera-space normals
 lose a little, which only the same-surface test sees). Entries are rounded to that form before use whether
 they were just made or read back, so a frame's output does not depend on where its history came from.
 
 On disk: ``FOLDER/KEY/NNNNNN.npz`` (``numpy.savez``, uncompressed), written to a temporary name and renamed
 (model/files.py). ``KEY`` (``cache_key``) hashes everything that changes a stateless prediction: the model
 file's sha256, the .blend and its modification time, the scene, the resolution, the samples, the working
-resolution. About 34 bytes a pixel: 17.6 MB a frame at 960x540. A run that renders all its frames removes its
+resolution. About 34 bytes a pixel (40 with the direct light): 17.6-20.7 MB a frame at 960x540. A run that renders all its frames removes its
 key's folder (``clear``); a killed or cancelled one leaves it for the resume.
 """
 from __future__ import annotations
@@ -26,7 +27,10 @@ import numpy as np
 
 from .. import files
 
-GUIDES = ("depth", "normal", "albedo", "vector")
+GUIDES = ("depth", "normal", "albedo", "vector", "direct_light")
+# the frame's own direct light, when the frame renders one (the first found): the temporal mode's "same light" test
+# (temporal.Tolerances.light): a moving object's shadow or a lamp that changes rejects history there
+DIRECT_LIGHT = ("direct", "direct_soft")
 _SHA: dict = {}
 
 
@@ -64,6 +68,10 @@ def make_entry(part: np.ndarray, groups: dict, light_albedo: np.ndarray | None =
     from .temporal import light_of
     e = {"light": light_of(part, groups["albedo"] if light_albedo is None else light_albedo)} \
         | {g: groups[g] for g in GUIDES if g in groups}
+    for g in DIRECT_LIGHT:
+        if g in groups:
+            e["direct_light"] = np.asarray(groups[g], np.float32)[..., :3]
+            break
     return _rounded(e)
 
 

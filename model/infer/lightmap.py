@@ -14,14 +14,20 @@ by the albedo). At render time:
 2. ``Lightmap.light(...)``: the MLP's diffuse light at those points (at a large output, at the working
    resolution's representative pixels and upsampled with the depth/normal-guided upsampler of workres.py);
 3. ``Lightmap.apply(part, groups, M, P)``: the network's diffuse part blended with albedo x that light, with weight
-   ``lam`` where the blend is safe and 0 elsewhere: the ``edges`` (a 3 x 3 neighbourhood with a depth
-   discontinuity or crease, or where the normal or the albedo changes: anti-aliased silhouettes and textures, where
+   ``lam`` where the blend is safe and 0 elsewhere: the ``edges`` (the two pixels of a depth
+   discontinuity or crease, or a 3 x 3 neighbourhood where the normal or the albedo changes: anti-aliased silhouettes and textures, where
    one light per pixel is wrong; a flat face seen at a grazing angle is not an edge), pixels with a
    (near-)black albedo channel (metal, emitters) and pixels where nothing was hit. ``lam`` is chosen by the fit on
    its validation views; 0 means the lightmap is not used.
 
-What it cannot know: a moving object's own light at a place it was not baked, and light that changes over the shot
-(lamps switched on); the screen-space network still renders those, and ``lam`` < 1 keeps part of it everywhere.
+**Known light** (``known``, session 16): a field can instead learn the light *minus* the frame's own direct light,
+passes the render path renders anyway (``direct_soft`` or ``direct``, ``emit_direct``: ``KNOWN_CANDIDATES``); at render
+time it adds them back, ``light = max(sum of the known groups + field, 0)``. Direct light, with its shadows, then
+comes from each frame's own rasterized passes, so a moving object's shadow moves with it, and the field holds only
+the indirect rest, which changes little over a shot. Which way a shot takes is chosen by the fit on its validation
+views (model/learn/lightmap.py). What it still cannot know: a moving object's indirect light (bounce, occlusion of
+indirect light) at a place it was not baked, and indirect light that changes over the shot (lamps switched on); the
+screen-space network still renders those, and ``lam`` < 1 keeps part of it everywhere.
 The file lives beside the model (``path_for``: ``shot.pt`` -> ``shot.lightmap.npz``, also found from
 ``shot.onnx``), numpy only, so the ONNX path without torch uses it too.
 """
@@ -41,6 +47,29 @@ EDGE_LOG_ALBEDO = 0.1  # ... of any channel's log albedo (texture, colour edges)
 MAX_FULL_PIXELS = 600_000  # larger outputs evaluate the field at the working resolution's factor
 FORMAT = 1
 KEYS = ("lo", "hi", "nfreq", "lam", "format")
+# the frame's own direct light a field may learn beside (at most one of the first two: both hold the lamps' direct
+# light, the soft one with the lamps' real size); the fit keeps those the model's own inputs already include
+KNOWN_CANDIDATES = (("direct_soft", "direct"), ("emit_direct",))
+
+
+def known_for(groups) -> tuple[str, ...]:
+    """The known-light groups a field can use when a frame renders ``groups`` (``KNOWN_CANDIDATES``)."""
+    have = set(groups)
+    out = []
+    for alternatives in KNOWN_CANDIDATES:
+        pick = [g for g in alternatives if g in have][:1]
+        out += pick
+    return tuple(out)
+
+
+def known_light(groups: dict, known) -> np.ndarray | float:
+    """The sum of a frame's ``known`` groups (HxWx3), or 0.0 when there are none."""
+    if not known:
+        return 0.0
+    missing = [k for k in known if k not in groups]
+    if missing:
+        raise UserError(f"lightmap: the frame has no {', '.join(missing)} pass, which its field adds back")
+    return sum(np.nan_to_num(np.asarray(groups[k], np.float32)[..., :3]) for k in known)
 
 
 def path_for(model_path) -> Path:
@@ -92,7 +121,8 @@ def project(points: np.ndarray, M, P, width: int, height: int) -> tuple[np.ndarr
 
 
 def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray) -> np.ndarray:
-    """HxW bool: pixels whose 3 x 3 neighbourhood changes depth, normal or albedo (module doc)."""
+    """HxW bool: pixels beside a depth discontinuity or crease (second difference of 1/depth), or whose 3 x 3
+    neighbourhood changes normal or albedo (module doc)."""
     def spread(a):  # 3 x 3 max - min, edge pixels repeated, separably (numpy only: the extension ships no scipy)
         ap = np.pad(a, 1, mode="edge")
         hi = np.maximum(np.maximum(ap[:, :-2], ap[:, 1:-1]), ap[:, 2:])
@@ -103,11 +133,13 @@ def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray) -> np.ndarr
     z = np.asarray(depth, np.float32)
     z = z[..., 0] if z.ndim == 3 else z
     # depth: 1/z is linear across the screen on a plane, so its second difference (relative to 1/z) is ~0 on any
-    # flat face, however grazing, and large at a silhouette or a crease; the 3 x 3 spread marks the pixels beside it
+    # flat face, however grazing, and large at a silhouette or a crease; a jump between two pixels gives a large
+    # second difference at both (the two pixels an anti-aliased edge mixes), so no further spread (session 16: the
+    # 3 x 3 spread of session 15 kept 4-pixel bands from the lightmap, -0.05 to -0.23 dB on the withheld frames)
     iz = 1.0 / np.maximum(np.nan_to_num(z, nan=1e30, posinf=1e30), 1e-3)
     ip = np.pad(iz, 1, mode="edge")
     d2 = np.maximum(np.abs(ip[1:-1, :-2] + ip[1:-1, 2:] - 2 * iz), np.abs(ip[:-2, 1:-1] + ip[2:, 1:-1] - 2 * iz))
-    e = spread((d2 > EDGE_DEPTH * iz).astype(np.float32)) > 0
+    e = d2 > EDGE_DEPTH * iz
     n = np.nan_to_num(np.asarray(normal, np.float32))
     a = np.log(np.maximum(np.nan_to_num(np.asarray(albedo, np.float32)), 1e-3))
     for c in range(3):
@@ -141,9 +173,14 @@ def encode(points: np.ndarray, normals: np.ndarray, lo, hi, nfreq: int) -> np.nd
 
 class Lightmap:
     """The fitted field: ``weights`` [(W, b), ...] of an MLP with ReLU between layers (numpy), the box ``lo``/``hi``,
-    ``nfreq``, and the blend weight ``lam``."""
+    ``nfreq``, the blend weight ``lam`` and the ``known`` groups it adds back (module doc)."""
 
-    def __init__(self, weights, lo, hi, nfreq: int = NFREQ, lam: float = 0.0, meta: dict | None = None):
+    def __init__(self, weights, lo, hi, nfreq: int = NFREQ, lam: float = 0.0, meta: dict | None = None,
+                 known=()):
+        self.known = tuple(known)  # groups added back at render time (module doc); () = the field is the light
+        bad = [k for k in self.known if not any(k in alt for alt in KNOWN_CANDIDATES)]
+        if bad:
+            raise UserError(f"lightmap: unknown known-light group(s) {', '.join(bad)}")
         self.weights = [(np.asarray(w, np.float32), np.asarray(b, np.float32)) for w, b in weights]
         self.lo, self.hi = np.asarray(lo, np.float32), np.asarray(hi, np.float32)
         self.nfreq, self.lam = int(nfreq), float(lam)
@@ -153,7 +190,8 @@ class Lightmap:
             raise UserError(f"lightmap: layers {[w.shape for w, _ in self.weights]} do not map {din} features to RGB")
 
     def field(self, points: np.ndarray, normals: np.ndarray, chunk: int = 65536) -> np.ndarray:
-        """Nx3 diffuse light (>= 0) at N world points facing ``normals``."""
+        """Nx3 field values at N world points facing ``normals``: the diffuse light (>= 0), or with ``known`` the
+        light minus the known groups (signed)."""
         pts, nrm = np.reshape(points, (-1, 3)), np.reshape(normals, (-1, 3))
         out = np.empty((len(pts), 3), np.float32)
         for s in range(0, len(pts), chunk):
@@ -163,7 +201,8 @@ class Lightmap:
                 if i < len(self.weights) - 1:
                     np.maximum(h, 0.0, out=h)
             out[s:s + chunk] = h
-        return np.maximum(np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
+        out = np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
+        return out if self.known else np.maximum(out, 0.0)
 
     def light(self, groups: dict, M, P, factor: int | None = None) -> np.ndarray:
         """HxWx3 diffuse light of the frame's pixels (module doc, step 2). ``factor``: evaluate at the working
@@ -173,9 +212,10 @@ class Lightmap:
         z = z if z.ndim == 3 else z[..., None]
         H, W = z.shape[:2]
         f = int(factor) if factor else max(1, int(np.ceil(np.sqrt(H * W / MAX_FULL_PIXELS))))
+        known = known_light(groups, self.known)
         if f == 1:
             pw, nw = world_points(z, groups["normal"], M, P)
-            return self.field(pw, nw).reshape(H, W, 3)
+            return np.maximum(self.field(pw, nw).reshape(H, W, 3) + known, 0.0)
         # only the representative pixels are placed in the world (their own pixel centres), then upsampled
         idx = workres.representative_index(z[..., 0], f)
         n = np.asarray(groups["normal"], np.float32)
@@ -187,7 +227,7 @@ class Lightmap:
         pts, nrm = world_points(lo["depth"], lo["normal"], M, P, pixels=(cols, rows, W, H))
         light_lo = self.field(pts, nrm).reshape(pts.shape)
         hi = {"depth": z, "normal": n}
-        return np.maximum(workres.upsample_light(light_lo, lo, hi, factor=f), 0.0)
+        return np.maximum(workres.upsample_light(light_lo, lo, hi, factor=f) + known, 0.0)
 
     def apply(self, part: np.ndarray, groups: dict, M, P, factor: int | None = None) -> np.ndarray:
         """The network's diffuse ``part`` (HxWx3) blended with albedo x the lightmap's light (module doc, step 3).
@@ -207,7 +247,7 @@ class Lightmap:
         arrays = {f"w{i}": w for i, (w, _) in enumerate(self.weights)}
         arrays.update({f"b{i}": b for i, (_, b) in enumerate(self.weights)})
         arrays.update(lo=self.lo, hi=self.hi, nfreq=np.int64(self.nfreq), lam=np.float64(self.lam),
-                      format=np.int64(FORMAT), meta=np.array(__import__("json").dumps(self.meta, default=str)))
+                      format=np.int64(FORMAT), known=np.array("+".join(self.known)), meta=np.array(__import__("json").dumps(self.meta, default=str)))
 
         def write(tmp):
             with open(tmp, "wb") as fh:
@@ -228,7 +268,8 @@ class Lightmap:
                 n = sum(1 for k in z.files if k.startswith("w"))
                 weights = [(z[f"w{i}"], z[f"b{i}"]) for i in range(n)]
                 meta = json.loads(str(z["meta"])) if "meta" in z.files else {}
-                return cls(weights, z["lo"], z["hi"], int(z["nfreq"]), float(z["lam"]), meta)
+                known = tuple(k for k in str(z["known"]).split("+") if k) if "known" in z.files else ()
+                return cls(weights, z["lo"], z["hi"], int(z["nfreq"]), float(z["lam"]), meta, known)
         except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as e:
             raise UserError(f"{path}: cannot read the lightmap ({type(e).__name__}: {e})") from None
 

@@ -42,10 +42,16 @@ EPS = 1e-4
 
 @dataclass(frozen=True)
 class Tolerances:
-    """When a reprojected history sample is the same surface as the current pixel."""
+    """When a reprojected history sample is the same surface, under the same direct light, as the current pixel."""
     depth: float = 0.05  # |z_prev - z| / z at most (relative view depth; a camera dolly changes it a little)
     normal: float = 0.8  # cos(angle) of the camera-space normals at least (a camera turn rotates them)
     albedo: float = 0.1  # |albedo_prev - albedo| per channel at most
+    # |direct_prev - direct| per channel at most this share of the larger of the two (+ LIGHT_FLOOR): the frame's
+    # own rasterized direct light (history.DIRECT_LIGHT) changed there: a moving object's shadow, a lamp animated
+    light: float = 0.25
+
+
+LIGHT_FLOOR = 1e-3
 
 
 def prev_coords(vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -81,6 +87,10 @@ def _agree(prev: dict, cur: dict, tol: Tolerances) -> np.ndarray:
         ok = m if ok is None else ok & m
     if "albedo" in prev and "albedo" in cur:
         m = np.max(np.abs(prev["albedo"][..., :3] - cur["albedo"][..., :3]), -1) <= tol.albedo
+        ok = m if ok is None else ok & m
+    if "direct_light" in prev and "direct_light" in cur:
+        a, b = prev["direct_light"][..., :3], cur["direct_light"][..., :3]
+        m = np.all(np.abs(a - b) <= tol.light * np.maximum(np.abs(a), np.abs(b)) + LIGHT_FLOOR, -1)
         ok = m if ok is None else ok & m
     return ok
 
@@ -119,10 +129,11 @@ def reproject(prev_img: np.ndarray, vector: np.ndarray, prev_guides: dict | None
               cur_guides: dict | None = None, tol: Tolerances = Tolerances()):
     """Backward warp of frame t-1's ``prev_img`` (HxWxC) into frame t with frame t's ``vector`` (bilinear).
     Returns (warped HxWxC float32, valid HxW float32 in [0, 1]): the share of the bilinear weight that falls on
-    taps inside the frame whose depth, normal and albedo (``prev_guides`` of t-1 against ``cur_guides`` of t)
+    taps inside the frame whose depth, normal, albedo and direct light (``prev_guides`` of t-1 against ``cur_guides`` of t)
     agree: 0 out of frame and at disocclusions."""
     rows, cols = prev_coords(vector)
-    imgs = {"img": prev_img} | {k: v for k, v in (prev_guides or {}).items() if k in ("depth", "normal", "albedo")}
+    imgs = {"img": prev_img} | {k: v for k, v in (prev_guides or {}).items()
+                                if k in ("depth", "normal", "albedo", "direct_light")}
     out, w = sample(imgs, rows, cols, cur_guides if prev_guides else None, tol)
     return out["img"], w
 
@@ -141,7 +152,7 @@ def reproject_window(history: list[dict], vector: np.ndarray, cur: dict, tol: To
     alive = np.ones(rows.shape, np.float32)
     out = []
     for h in history:
-        imgs = {k: h[k] for k in ("light", "depth", "normal", "albedo", "vector") if k in h}
+        imgs = {k: h[k] for k in ("light", "depth", "normal", "albedo", "vector", "direct_light") if k in h}
         s, w = sample(imgs, rows, cols, cur, tol)
         alive = alive * w
         out.append((s["light"], alive.copy()))

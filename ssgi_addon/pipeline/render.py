@@ -191,7 +191,9 @@ class RenderSession:
         from ...model.infer import lightmap
         self.lightmap = lightmap.load_beside(self.model_path) if ch.adds_rest(self.target) else None
         if self.lightmap is not None:
-            log(f"lightmap {lightmap.path_for(self.model_path).name}: weight {self.lightmap.lam:g}")
+            self.groups = tuple(dict.fromkeys(self.groups + self.lightmap.known))  # the direct light it adds back
+            log(f"lightmap {lightmap.path_for(self.model_path).name}: weight {self.lightmap.lam:g}"
+                + (f", known light {'+'.join(self.lightmap.known)}" if self.lightmap.known else ""))
         self.cancelled = False
         self.results: list[dict] = []
 

@@ -117,7 +117,7 @@ class History:
         """Cache frame ``frame``'s own stateless entry; return its blended diffuse part."""
         t0 = time.perf_counter()
         own = self.cache.put(frame, hist.make_entry(part, groups, self._albedo(groups)))
-        cur = {g: own[g] for g in ("depth", "normal", "albedo")}
+        cur = {g: own[g] for g in ("depth", "normal", "albedo", "direct_light") if g in own}
         warped = tp.reproject_window(entries, own["vector"], cur) if entries else []
         out = tp.blend(part, self._albedo(groups), warped, self.weights[:len(warped)],
                        geometry=groups["albedo"][..., :3].max(-1) > tp.EPS)

@@ -199,3 +199,47 @@ def test_the_blend_weight_is_chosen_on_the_validation_views(tmp_path):
     assert len(pos) == int(usable.sum()) == 12 * 16 - 1 - 12 and np.allclose(y, 0.8, atol=1e-5)
     with pytest.raises(UserError, match="no camera matrices"):
         llm.points(tmp_path, {}, ["000000"], "ref_diffuse")
+
+
+def test_a_field_of_the_light_minus_the_frames_direct_light_follows_a_moving_shadow(tmp_path):
+    """A floor lit by a lamp whose shadow (a moving object's) is somewhere else in every view, plus a smooth
+    indirect light. A field of the whole light learns the shadows where the views had them; a field of the light
+    minus the frame's own ``direct`` pass learns only the indirect light and, with the direct pass added back,
+    renders a frame with the shadow at a new place. The fit tries both (the model reads ``direct``), keeps the
+    known-light one on the validation view, and the file keeps which groups it adds back."""
+    H, W = 32, 48
+    cols = np.arange(W)[None, :].repeat(H, 0)
+    rows = np.arange(H)[:, None].repeat(W, 1)
+    indirect = (0.3 + 0.2 * cols / W)[..., None].repeat(3, -1).astype(np.float32)
+
+    def view(shadow_x):
+        direct = np.ones((H, W, 3), np.float32)
+        direct[(cols - shadow_x) ** 2 + (rows - H / 2) ** 2 < 36] = 0.0
+        g = {"depth": np.full((H, W, 1), 3.0, np.float32), "albedo": np.full((H, W, 3), 0.6, np.float32),
+             "normal": np.broadcast_to(np.float32([0, 0, 1]), (H, W, 3)).copy(), "direct": direct}
+        return dict(g, ref_diffuse=g["albedo"] * (direct + indirect))
+    P = perspective(w=W, h=H, shift_x=0.0)
+    cams = {}
+    for k, x in (("000000", 8), ("000001", 40), ("000002", 24)):
+        exrio.write_sample(folder.sample_path(tmp_path, k), view(x), half=False)
+        cams[k] = {"M": np.eye(4).tolist(), "P": P.tolist()}
+
+    class Net:  # the network: 10 % too dark everywhere
+        required = ("albedo", "direct")
+
+        def predict(self, g):
+            return 0.9 * g["albedo"] * (g["direct"] + indirect)
+    field, rep = llm.fit_lightmap(tmp_path, cams, ["000000", "000001"], ["000002"], Net(), "ref_diffuse", 600.0,
+                                  steps=400)
+    assert field.known == ("direct",) and rep["known"] == ["direct"] and field.lam > 0
+    assert set(rep["tried"]) == {"none", "direct"}
+    assert max(rep["tried"]["direct"]["val_psnr"].values()) > max(rep["tried"]["none"]["val_psnr"].values()) + 3
+    test = view(30)  # the shadow where no view had it
+    light = field.light(test, np.eye(4), P)
+    assert np.abs(light - (test["direct"] + indirect)).mean() < 0.03
+    back = field.save(tmp_path / "m.lightmap.npz")
+    assert lm.Lightmap.load(back).known == ("direct",)
+    with pytest.raises(UserError, match="no direct pass"):
+        field.light({k: v for k, v in test.items() if k != "direct"}, np.eye(4), P)
+    assert lm.known_for(("albedo", "direct", "direct_soft", "emit_direct")) == ("direct_soft", "emit_direct")
+    assert lm.known_for(("albedo", "normal")) == ()

@@ -50,6 +50,21 @@ def test_the_mask_rejects_disocclusion_and_changed_normal_or_albedo():
     g_cur["depth"][0:3] = 2.04  # a small dolly (2 %) keeps the history
     _, valid = tp.reproject(prev, _vec(0, 0), g_prev, g_cur)
     assert (valid[0:3] == 1).all()
+    # the same surface under another direct light (a moving object's shadow arrived): rejected; a small change
+    # (the rasterizer's sampling noise) is not; and frames without a direct light keep the old test
+    g_prev["direct_light"] = np.full((H, W, 3), 2.0, np.float32)
+    g_cur["direct_light"] = g_prev["direct_light"].copy()
+    g_cur["direct_light"][8:10] = 0.2  # in the shadow now
+    g_cur["direct_light"][10:, :, 1] = 2.2  # 10 % brighter green
+    _, valid = tp.reproject(prev, _vec(0, 0), g_prev, g_cur)
+    assert (valid[3:7] == 0).all() and (valid[8:10] == 0).all() and (valid[7] == 1).all() and (valid[10:] == 1).all()
+    _, v2 = tp.reproject(prev, _vec(0, 0), {k: v for k, v in g_prev.items() if k != "direct_light"}, g_cur)
+    assert (v2[8:10] == 1).all()
+    # a history entry keeps the frame's direct light (``direct`` before ``direct_soft``) as that guide
+    from ssgi.model.infer import history as hist
+    e = hist.make_entry(np.ones((H, W, 3), np.float32), dict(g_cur, direct_soft=np.zeros((H, W, 3), np.float32),
+                                                              direct=g_cur["direct_light"]))
+    assert np.array_equal(e["direct_light"], g_cur["direct_light"].astype(np.float16).astype(np.float32))
 
 
 def test_the_blend_is_the_stateless_prediction_bitwise_without_history_and_for_a_still_frame():
