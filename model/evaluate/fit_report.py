@@ -236,9 +236,16 @@ def report_markdown(rep: dict, model) -> str:
               f"A world-space field of the diffuse light (model/infer/lightmap.py), {m['points']:,} points of the "
               f"training views, {m['steps']:,} steps in {_n(m['seconds'], '{:.0f}')} s; blended into the network's "
               f"diffuse part with weight **{m['lam']:g}** (0: not used), chosen on the validation views:", "",
-              "| weight | " + " | ".join(str(k) for k in m["val_psnr"]) + " |",
-              "|---|" + "---:|" * len(m["val_psnr"]),
-              "| val PSNR (dB) | " + " | ".join(_n(v) for v in m["val_psnr"].values()) + " |"]
+              "| field \\ weight | " + " | ".join(str(k) for k in m["val_psnr"]) + " |",
+              "|---|" + "---:|" * len(m["val_psnr"])]
+        tried = m.get("tried") or {"+".join(m.get("known", [])) or "none": m}
+        for name, t in tried.items():  # the whole light ("none"), and the light minus the frame's direct light
+            what = "the whole diffuse light" if name == "none" else f"the light minus the frame's {name}"
+            kept = " (kept)" if name == ("+".join(m.get("known", [])) or "none") else ""
+            L += [f"| {what}{kept}: val PSNR (dB) | " + " | ".join(_n(v) for v in t["val_psnr"].values()) + " |"]
+        if m.get("known"):
+            L += ["", f"The kept field learned the diffuse light minus the frame's own {' + '.join(m['known'])}; the node "
+                  "adds those passes back each frame, so direct light and moving shadows come from the frame itself."]
     if rep.get("withheld"):
         L += withheld_markdown(rep["withheld"])
     L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]
