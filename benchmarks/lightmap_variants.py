@@ -87,6 +87,18 @@ def score(a) -> None:
                            M=z["M"], P=z["P"], ref=z["ref"][..., :3], ref_diffuse=z["ref_diffuse"][..., :3]))
     if not frames:
         sys.exit(f"{a.frames}: no cached frames (f*.npz); run the cache step first")
+    if a.model:  # another network on the same cached passes (the cache's model must read every input it reads)
+        from ssgi.model import channels as chs
+        from ssgi.model.infer.predictor import load_predictor
+        from ssgi.model.infer.workres import WorkingResolution
+        pr = WorkingResolution(load_predictor(a.model, num_threads=a.threads, runtime="torch"), "auto")
+        want = chs.required_groups(tuple(pr.spec)) + ("normal", "depth", "albedo")
+        lacking = sorted({g for g in want for f in frames if g not in f["g"]})
+        if lacking:
+            sys.exit(f"{a.frames}: the cached passes lack {', '.join(lacking)}, which {a.model} reads; cache the "
+                     f"frames with a model that reads them (e.g. the shipped model)")
+        for f in frames:
+            f["net"] = pr.predict({g: f["g"][g] for g in dict.fromkeys(want)})
     known = tuple(k for k in a.known.split("+") if k)
 
     def scored(lights):
@@ -139,6 +151,8 @@ def main() -> None:
     s.add_argument("--known", default="direct_soft", help="the known-light groups, joined by + (e.g. direct+emit_direct)")
     s.add_argument("--seconds", type=float, default=120.0)
     s.add_argument("--threads", type=int, default=2)
+    s.add_argument("--model", default=None, help="score this network instead of the cached prediction (re-predicted "
+                   "from the cached passes, stateless)")
     s.add_argument("--edge-spread", action="store_true", help="session 15's edge rule, for comparison")
     a = ap.parse_args()
     (cache if a.cmd == "cache" else score)(a)

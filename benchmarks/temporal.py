@@ -41,7 +41,8 @@ def _window_blend(parts, groups, k, w, target, clamp=True):
     for t, (p, g) in enumerate(zip(parts, groups)):
         e = entries[t]
         prev = [entries[j] for j in range(t - 1, max(-1, t - 1 - k), -1)]
-        warped = tp.reproject_window(prev, e["vector"], {x: e[x] for x in ("depth", "normal", "albedo")}) if prev else []
+        warped = tp.reproject_window(prev, e["vector"], {x: e[x] for x in ("depth", "normal", "albedo", "direct_light")
+                                                             if x in e}) if prev else []
         b = tp.blend(p, la(g), warped, [w] * len(warped), geometry=g["albedo"][..., :3].max(-1) > tp.EPS,
                      clamp=clamp)
         out.append(compose(b, g, target))

@@ -81,14 +81,24 @@ def droppable(spec, head: str) -> list[str]:
     return [g for g in ch.drop_order() if g in spec and g not in need]
 
 
-def select_inputs(net, train, seconds: float, drop_tol: float, rows: list, log) -> tuple:
+def silent_groups(spec, samples) -> list[str]:
+    """The groups of ``spec`` whose network input is exactly 0 on every one of ``samples`` (``data.Sample``,
+    built for ``spec``): a pass the scene never lights (no world light in a black world, no emitter). A 0 input
+    adds nothing to any convolution (zero padding), so cutting its weights out (``drop_inputs``) leaves the
+    network's output on these views exactly as it was."""
+    lay = normalize.layout(tuple(spec))
+    return [g for g in spec if samples and all(not bool(s.x[lay[g]].any()) for s in samples)]
+
+
+def select_inputs(net, train, seconds: float, drop_tol: float, rows: list, log, silent=()) -> tuple:
     """Which input groups ``net`` can do without. ``train(name, arch, spec, seconds, init_state)`` -> (net with
     the best val weights, summary with ``val_psnr`` and ``minutes``) fine-tunes for ``seconds``; every run gets
     the same time. The control fine-tunes ``net`` on its own inputs; each droppable group is tried alone (its
     input weights cut out of ``net`` by ``drop_inputs``); a group can go when the val PSNR without it is at most
     ``drop_tol`` dB below the control's. Every trial starts from ``net``, so the comparison is fair; when
     several can go, their union is checked together (one more run), and when that costs more than
-    ``drop_tol`` only the cheapest goes. One row per decision is appended to ``rows``.
+    ``drop_tol`` only the cheapest goes. One row per decision is appended to ``rows``. ``silent``: droppable
+    groups that are 0 on every view (``silent_groups``): they go first, without a run (exact).
     Returns (net, spec, control val PSNR; None when nothing is droppable)."""
     spec = tuple(net.arch["inputs"])
     head = net.arch.get("head", "log")
@@ -96,8 +106,17 @@ def select_inputs(net, train, seconds: float, drop_tol: float, rows: list, log) 
     for g in spec:
         if g not in groups:
             rows.append(dict(phase="inputs", group=g, spec=None, decision=f"kept (the {head} head needs it)"))
+    gone = [g for g in groups if g in set(silent)]
+    if gone:
+        spec = tuple(x for x in spec if x not in gone)
+        net = drop_inputs(net, spec)
+        groups = [g for g in groups if g not in gone]
+        for g in gone:
+            rows.append(dict(phase="inputs", group=g, spec=ch.format_spec(spec), passes=list(ch.required_passes(spec)),
+                             decision="dropped (0 on every view: no run needed)"))
+        log(f"inputs: {', '.join(gone)} 0 on every view -> dropped without a run")
     if not groups:
-        rows.append(dict(phase="inputs", group="(all)", decision="nothing to drop"))
+        rows.append(dict(phase="inputs", group="(all)", decision="nothing else to drop" if gone else "nothing to drop"))
         return net, spec, None
 
     def row(group, sp, r, delta, decision):

@@ -347,10 +347,14 @@ class Fitter:
         """Ablation (module doc, step 3; ablation.select_inputs): one equal share of ``ABLATION_SHARE`` of the
         budget per run (the control, each droppable group, their union), at least ``min_run_s`` each: the
         ablation always runs, at most (groups + 2) * min_run_s over budget. Returns (net, spec, control)."""
-        n = len(ablation.droppable(tuple(net.arch["inputs"]), net.arch.get("head", "log")))
-        per = min(ABLATION_SHARE * self.budget.total, self.budget.left * 0.6) / (n + 2) if n else 0.0
+        spec = tuple(net.arch["inputs"])
+        can = ablation.droppable(spec, net.arch.get("head", "log"))
+        silent = [g for g in ablation.silent_groups(spec, self.views.samples(spec, self.train_keys + self.val_keys))
+                  if g in can]
+        n = len(can)  # runs as long as with every group tried: the time the silent groups save goes to the polish
+        per = min(ABLATION_SHARE * self.budget.total, self.budget.left * 0.6) / (n + 2) if n > len(silent) else 0.0
         return ablation.select_inputs(net, self._train, max(per, self.cfg.min_run_s), self.cfg.drop_tol, self.rows,
-                                      self.log)
+                                      self.log, silent=silent)
 
     def _finish(self, net, generic, chosen, reached, control, polish) -> dict:
         cfg = self.cfg

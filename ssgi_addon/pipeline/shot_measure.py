@@ -30,7 +30,7 @@ from ..blender import passes
 
 LADDER = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 CYCLES_SEED = 7919  # as the report's ladder (report_run.LADDER_SEED)
-KEEP = ("albedo", "depth", "normal", "vector", "rest", "eevee")
+KEEP = ("albedo", "depth", "normal", "vector", "rest", "eevee", "direct", "direct_soft")  # + the temporal mode's direct-light guide
 
 
 def score(imgs, refs, vectors, masks) -> dict:

@@ -372,3 +372,48 @@ def test_a_fit_refuses_a_whole_image_target_and_views_without_rest(views, generi
         fit.fit(fit.FitConfig(data=str(views), out=str(tmp_path / "b.pt"), target=ch.REST_TARGET, **kw),
                 log=lambda m: None)
     assert not (tmp_path / "b.pt").exists()
+
+
+def test_inputs_that_are_zero_on_every_view_go_without_a_run():
+    """A pass the scene never lights (world in a black world, emission without emitters) is 0 on every view: it
+    is dropped before the ablation's runs, and the network that the runs start from computes exactly what the
+    full network computed on those views; a pass that is non-zero on one view only is tried as before."""
+    torch.manual_seed(2)
+    spec = tuple(g for g in ch.INPUT_GROUPS if g in ("albedo", "normal", "depth", "direct", "world", "emission", "lit"))
+    net = network.build(network.arch_for("unet_s", spec)).eval()
+    for p in net.parameters():
+        torch.nn.init.normal_(p, std=0.2)
+    lay = normalize.layout(spec)
+    samples = []
+    for i in range(3):
+        x = torch.rand(ch.input_channels(spec), 16, 24)
+        x[lay["world"]] = 0
+        x[lay["emission"]] = 0
+        if i == 1:
+            x[lay["emission"]][0, 3, 5] = 1e-3  # one lit pixel on one view: not silent
+        samples.append(data.Sample(str(i), "s", x, torch.zeros(3, 16, 24)))
+    assert ablation.silent_groups(spec, samples) == ["world"]
+    small_spec = tuple(g for g in spec if g != "world")
+    kept = [i for g in small_spec for i in range(lay[g].start, lay[g].stop)]
+    runs = []
+
+    def train(name, arch, sp, seconds, init_state):
+        runs.append((name, tuple(sp)))
+        n = network.build(dict(arch)).eval()
+        n.load_state_dict(init_state)
+        if name == "control":  # starts from the full network with world cut out: the same outputs on these views
+            with torch.inference_mode():
+                for s in samples:
+                    want = net(s.x[None]).numpy()
+                    np.testing.assert_allclose(n(s.x[None, kept]).numpy(), want, rtol=1e-4,
+                                               atol=1e-5 * np.abs(want).max())
+        return n, dict(val_psnr=30.0 - (2.0 if "emission" in name else 0.0), minutes=0.01)
+
+    rows = []
+    out, out_spec, control = ablation.select_inputs(net, train, 1.0, 0.1, rows, lambda m: None, silent=["world"])
+    assert all("world" not in sp for _, sp in runs) and not any("world" in name for name, _ in runs)
+    assert ("drop-emission", tuple(g for g in small_spec if g != "emission")) in runs  # tried: lit on one view
+    assert "world" not in out_spec and "emission" in out_spec  # world gone for free; emission costs 2 dB: kept
+    assert control == 30.0
+    world = next(r for r in rows if r["group"] == "world")
+    assert world["decision"].startswith("dropped (0 on every view")
