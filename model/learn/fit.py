@@ -18,11 +18,15 @@ Method (one time budget, ``minutes``, shared by all phases; a run stops early wh
    checkpoint, that checkpoint fine-tuned (its own architecture and inputs), ordered by multiply-accumulates
    per pixel, smallest first. Each gets an equal share of ``SIZE_SHARE`` of the budget and stops as soon as
    its val PSNR reaches the target. The first candidate that reaches the target is kept; when none does,
-   the one with the best val PSNR is kept (and the report says the target was missed).
+   the one with the best val PSNR is kept (and the report says the target was missed). With other starting
+   checkpoints (``also_init``), a *start probe* comes first: ``init`` and each of them are fine-tuned for
+   ``PROBE_FRACTION`` of the size step, and the best on the val views is the fine-tune candidate, going on from
+   its probe weights (``init`` stays the generic model the report compares with).
 3. **Input selection** (learn/ablation.py). The kept network is fine-tuned briefly on its own inputs (the
    control) and, for each input group the head does not need (``channels.drop_order``: `world` first, a
    whole second EEVEE render), with that group removed: the first layers' weights for the removed channels
-   are cut out (``drop_inputs``), the rest kept, and the same short fine-tune follows. A group can go when
+   are cut out (``drop_inputs``), the rest kept, and the same short fine-tune follows. A group that is 0 on
+   every view (a pass the scene never lights) goes first without a run: cutting it changes no output. A group can go when
    the val PSNR without it is at most ``drop_tol`` dB below the control's. Every trial starts from the kept
    network and is compared with the control; when several can go, they are tried together, and dropped
    together only when that too costs at most ``drop_tol`` dB (else only the cheapest goes).
@@ -59,6 +63,7 @@ DEFAULT_TARGET_PSNR = 30.0
 SIZE_SHARE = 0.5  # of the budget, for the size search
 ABLATION_SHARE = 0.3  # ... for the input ablation (control + one run per droppable group)
 MIN_RUN_S = 5.0  # a run shorter than this is not started
+PROBE_FRACTION = 0.2  # of the size step, for each starting checkpoint's probe when there are several (``also_init``)
 
 # smallest first: (name, variant, overrides of network.arch_for). Narrow full-resolution levels: at 960x540
 # the full-resolution convolutions dominate the time (measured, docs/fit.md), so level 0 is 4-12 wide.
@@ -79,6 +84,10 @@ class FitConfig:
     minutes: float = 10.0
     target_psnr: float | None = None
     init: str | None = None
+    # other checkpoints a fit may start from (same architecture as ``init`` or not): each is fine-tuned briefly
+    # beside ``init`` (the start probe, PROBE_FRACTION of the size step each) and the best on the val views goes on;
+    # ``init`` stays "the generic model" of the report
+    also_init: list = field(default_factory=list)
     ladder: list = field(default_factory=lambda: [list(x) for x in LADDER])
     # the inputs scratch candidates start from (None: every input group except "scene" that the views' samples
     # hold; "scene" is derived and the shipped model has it)
@@ -284,7 +293,10 @@ class Fitter:
         if generic:
             cands.append(dict(name="generic-ft", arch=dict(generic["arch"]), start="fine-tune",
                               init_state=generic["net"].state_dict(), params=generic["params"], macs=generic["macs"]))
-        cands.sort(key=lambda c: (c["macs"], c["start"] != "fine-tune"))
+            alts = self._probe_starts(generic) if cfg.also_init else None
+            if alts:
+                cands[-1] = alts
+        cands.sort(key=lambda c: (c["macs"], not c["start"].startswith("fine-tune")))
         chosen = None
         results = []
         size_end = self.budget.used + SIZE_SHARE * self.budget.left  # time a candidate leaves is shared by the next
@@ -324,7 +336,8 @@ class Fitter:
                                ("below target" if r["macs_per_px"] < chosen["macs_per_px"] else "not kept"))
             self.rows.append(row)
         order = {c["name"]: i for i, c in enumerate(cands)}
-        self.rows.sort(key=lambda r: order.get(r.get("name"), len(order)) if r["phase"] == "size" else len(order))
+        self.rows.sort(key=lambda r: order.get(r.get("name"), -1 if str(r.get("name")).startswith("probe ") else len(order))
+                       if r["phase"] == "size" else len(order))  # the start probes first
         self.log(f"size: kept {chosen['name']} ({chosen['arch']}), val {chosen['val_psnr']:.2f} dB"
                  + ("" if reached else f"; no candidate reached the target {self.target:.2f} dB"))
 
@@ -342,6 +355,36 @@ class Fitter:
             if rp["val_psnr"] is not None and rp["val_psnr"] >= pre:
                 net = pnet
         return self._finish(net, generic, chosen, reached, control, polish)
+
+    def _probe_starts(self, generic) -> dict | None:
+        """The start probe (``also_init``): ``init`` and each other checkpoint are fine-tuned for PROBE_FRACTION of
+        the size step; the one with the best val PSNR becomes the fine-tune candidate, which goes on from its probe
+        weights. One row per probe. Returns that candidate (None when no other checkpoint can be loaded)."""
+        starts = [("generic-ft", self.cfg.init, generic["net"], "fine-tune")]
+        for i, path in enumerate(self.cfg.also_init):
+            if str(path) == str(self.cfg.init):
+                continue
+            ck = checkpoint.load(path)
+            starts.append((f"start{i + 2}-ft", str(path), checkpoint.build_net(ck, path), f"fine-tune ({Path(path).name})"))
+        if len(starts) < 2:
+            return None
+        secs = max(self.cfg.min_run_s, PROBE_FRACTION * SIZE_SHARE * self.budget.left)
+        probes = []
+        for name, path, net0, start in starts:
+            self.log(f"start probe {name} ({Path(path).name}): {secs:.0f} s")
+            net, r = self._train(f"probe-{name}", dict(net0.arch), tuple(net0.arch["inputs"]), secs,
+                                 net0.state_dict(), self.target)
+            self.log(f"start probe {name}: val {r['val_psnr']:.2f} dB after {r['minutes']:.2f} min")
+            probes.append((r["val_psnr"] if r["val_psnr"] is not None else -math.inf, name, path, net, start, r))
+        best = max(probes, key=lambda p: p[0])
+        for v, name, path, net, start, r in probes:
+            self.rows.append(dict(phase="size", name=f"probe {name}", arch=arch_label(net.arch), start=start,
+                                  params=network.count_params(net), macs_per_px=number(network.macs_per_pixel(net)),
+                                  val_psnr=r["val_psnr"], seconds=number(60 * r["minutes"]), epochs=r["epochs"],
+                                  decision=f"start probe: {'goes on' if name == best[1] else 'not kept'} ({path})"))
+        v, name, path, net, start, r = best
+        return dict(name=name, arch=dict(net.arch), start=start + ", after its probe", init_state=net.state_dict(),
+                    params=network.count_params(net), macs=number(network.macs_per_pixel(net)))
 
     def _select_inputs(self, net):
         """Ablation (module doc, step 3; ablation.select_inputs): one equal share of ``ABLATION_SHARE`` of the

@@ -19,10 +19,17 @@ from ..pipeline.fit import FitSceneConfig
 from . import command_line, progress_sink
 
 
+def _also(values):
+    """--also-init: None (not given: the default rule), [] for "none", else the files."""
+    if values is None:
+        return None
+    return [] if [v.lower() for v in values] == ["none"] else list(values)
+
+
 def config(args) -> FitSceneConfig:
     return FitSceneConfig(out=args.out, blend=args.blend, data=args.data, plan=args.plan, scene=args.scene,
                           views=args.views, minutes=args.minutes, target_psnr=args.target_psnr, size=args.size,
-                          init=args.init, drop_tol=args.drop_tol, ref_samples=args.ref_samples,
+                          init=args.init, also_init=_also(args.also_init), drop_tol=args.drop_tol, ref_samples=args.ref_samples,
                           ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop, batch=args.batch,
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
                           frames=args.frames, learn_rest=args.learn_rest,
@@ -86,6 +93,10 @@ def register_cli(sub) -> None:
                         "node renders them, beside the generic model and Cycles 1 spp + OIDN")
     p.add_argument("--init", default=None, metavar="MODEL",
                    help="checkpoint to fine-tune from (default: the shipped models/ssgi_default.pt when present)")
+    p.add_argument("--also-init", action="append", default=None, metavar="MODEL",
+                   help="another checkpoint to start from: each start is fine-tuned briefly and the best on the "
+                        "validation views goes on (repeatable; default for a shot fit without --init: the shipped "
+                        "models/ssgi_fit_start.pt; --also-init none probes nothing)")
     p.add_argument("--drop-tol", type=float, default=D.drop_tol, metavar="DB",
                    help="drop an input pass when the val PSNR without it is at most this much lower (default %(default)s)")
     p.add_argument("--ref-samples", type=cliargs.positive_int, default=D.ref_samples,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import random
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -417,3 +418,41 @@ def test_inputs_that_are_zero_on_every_view_go_without_a_run():
     assert control == 30.0
     world = next(r for r in rows if r["group"] == "world")
     assert world["decision"].startswith("dropped (0 on every view")
+
+
+def test_the_start_probe_goes_on_with_the_starting_checkpoint_best_on_the_val_views(views, generic, tmp_path):
+    """``also_init``: each starting checkpoint is fine-tuned briefly; the one with the best val PSNR goes on (from
+    its probe weights) as the fine-tune candidate; the report's generic model stays ``init``. A checkpoint made
+    to be bad on these views (every weight scaled up: outputs far off) must lose the probe."""
+    torch.manual_seed(5)
+    bad = network.build(network.arch_for("unet_s"))
+    with torch.no_grad():
+        for p in bad.parameters():
+            p.mul_(6.0)
+    bad_path = tmp_path / "bad.pt"
+    ck = checkpoint.make(bad, "network", command="test")
+    ck["versions"] = {k: str(v) for k, v in ck["versions"].items()}
+    checkpoint.save(bad_path, ck)
+    for order in ((str(generic), [str(bad_path)]), (str(bad_path), [str(generic)])):
+        out = tmp_path / f"probe_{len(order[0])}_{Path(order[0]).stem}.pt"
+        cfg = fit.FitConfig(data=str(views), out=str(out), train_keys=TRAIN, val_keys=VAL, minutes=0.3,
+                            init=order[0], also_init=order[1], ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0,
+                            bench_size="96x64", bench_repeats=1, command="test")
+        res = fit.fit(cfg, log=lambda m: None)
+        size = [r for r in res["rows"] if r["phase"] == "size"]
+        probes = [r for r in size if r["name"].startswith("probe ")]
+        assert len(probes) == 2 and all(r["val_psnr"] is not None for r in probes)
+        best = max(probes, key=lambda r: r["val_psnr"])
+        assert [r["decision"].startswith("start probe: goes on") for r in probes].count(True) == 1
+        assert best["decision"].startswith("start probe: goes on") and str(generic) in best["decision"]
+        kept = next(r for r in size if r["decision"] == "kept")
+        assert kept["start"].endswith("after its probe")
+        assert res["generic"]["path"] == order[0]  # the report compares with init, whichever start went on
+
+
+def test_a_fit_start_that_is_not_a_model_is_a_one_line_error(tmp_path):
+    from ssgi.ssgi_addon.pipeline.fit import FitSceneConfig
+    junk = tmp_path / "junk.pt"
+    junk.write_bytes(b"not a checkpoint")
+    with pytest.raises(UserError, match="--also-init .*junk.pt"):
+        FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), also_init=[str(junk)]).check()
