@@ -72,6 +72,16 @@ def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
     return ladder, target
 
 
+def starts_to_probe(cfg, init, shot: bool) -> list[str]:
+    """The checkpoints a fit probes beside ``init`` (``FitConfig.also_init``): ``cfg.also_init`` when given, else for
+    a shot fit that was given no ``--init`` the shipped fit start (FIT_START_MODEL, when present); never ``init``
+    itself."""
+    also = cfg.also_init
+    if also is None:
+        also = [str(FIT_START_MODEL)] if (not cfg.init and shot and init and FIT_START_MODEL.is_file()) else []
+    return [str(a) for a in also if str(a) != str(init)]
+
+
 @dataclass
 class FitSceneConfig:
     """What ``run`` fits; the defaults are those of ``cli.py fit`` and the Fit panel."""
@@ -212,10 +222,7 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         log(f"fit: the bake took {bake_s / 60:.2f} of {cfg.minutes:g} min; fitting gets {fit_minutes:.2f} min "
             "(the whole fit will run over the budget)")
     ladder, target = shot_defaults(cfg, init, bool(withheld))
-    also = cfg.also_init
-    if also is None:
-        also = [str(FIT_START_MODEL)] if (not cfg.init and withheld and init and FIT_START_MODEL.is_file()) else []
-    also = [str(a) for a in also if str(a) != str(init)]
+    also = starts_to_probe(cfg, init, bool(withheld))
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
                           minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,
                           seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command,

@@ -456,3 +456,20 @@ def test_a_fit_start_that_is_not_a_model_is_a_one_line_error(tmp_path):
     junk.write_bytes(b"not a checkpoint")
     with pytest.raises(UserError, match="--also-init .*junk.pt"):
         FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), also_init=[str(junk)]).check()
+
+
+def test_a_shot_fit_without_init_probes_the_shipped_fit_start_and_nothing_else_does(tmp_path):
+    from ssgi.ssgi_addon.pipeline.fit import FIT_START_MODEL, FitSceneConfig, starts_to_probe
+    DEFAULT_MODEL = FIT_START_MODEL.with_name("ssgi_default.pt")  # (the node's DEFAULT_MODEL; node imports bpy)
+    assert FIT_START_MODEL.is_file() and checkpoint.load(FIT_START_MODEL)["arch"]["variant"]  # shipped, loadable
+    meta = json.loads(FIT_START_MODEL.with_suffix(".json").read_text())
+    assert meta["model"] == FIT_START_MODEL.name and meta["train_command"]  # reproducible: its commands beside it
+    cfg = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path))
+    assert starts_to_probe(cfg, str(DEFAULT_MODEL), shot=True) == [str(FIT_START_MODEL)]
+    assert starts_to_probe(cfg, str(DEFAULT_MODEL), shot=False) == []  # a still scene: the ladder, as before
+    mine = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), init=str(DEFAULT_MODEL))
+    assert starts_to_probe(mine, str(DEFAULT_MODEL), shot=True) == []  # --init given: that start alone
+    off = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), also_init=[])
+    assert starts_to_probe(off, str(DEFAULT_MODEL), shot=True) == []  # --also-init none
+    same = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), also_init=[str(DEFAULT_MODEL), "x.pt"])
+    assert starts_to_probe(same, str(DEFAULT_MODEL), shot=True) == ["x.pt"]  # never init itself
