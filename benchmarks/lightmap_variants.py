@@ -88,11 +88,10 @@ def score(a) -> None:
     if not frames:
         sys.exit(f"{a.frames}: no cached frames (f*.npz); run the cache step first")
     if a.model:  # another network on the same cached passes (the cache's model must read every input it reads)
-        from ssgi.model import channels as chs
         from ssgi.model.infer.predictor import load_predictor
         from ssgi.model.infer.workres import WorkingResolution
         pr = WorkingResolution(load_predictor(a.model, num_threads=a.threads, runtime="torch"), "auto")
-        want = chs.required_groups(tuple(pr.spec)) + ("normal", "depth", "albedo")
+        want = tuple(pr.required) + ("normal", "depth", "albedo")  # as RenderSession.predict_network asks
         lacking = sorted({g for g in want for f in frames if g not in f["g"]})
         if lacking:
             sys.exit(f"{a.frames}: the cached passes lack {', '.join(lacking)}, which {a.model} reads; cache the "
