@@ -19,6 +19,9 @@ Scenes (``NAMES``), each animated over frames 1..N (N = ``--frames``, 48 by defa
   a box that waves (Wave modifier) and a column that twists (Simple Deform, deforming meshes).
 - ``living_room``: benchmarks/artist_scenes.py's living room, the camera moving along the room (a slow
   truck right and push in, looking at the armchair and the lamp) over the frame range.
+- ``cornell_emissive``, ``studio``: benchmarks/artist_scenes.py's scenes of the same names (issue 10's set),
+  the camera moving (the Cornell box: a push in and to the right, tilting down to the ball; the studio: an
+  orbit to the left, rising) over the frame range; nothing else moves, as in ``living_room``.
 
 API: ``build(name, size, frames)`` resets Blender to an empty file, builds the shot, returns the scene;
 ``save(scene, path)`` (artist_scenes.save) writes atomically; ``build_<name>(scene, frames)`` fills an empty
@@ -37,7 +40,7 @@ import bpy  # noqa: E402
 import bmesh  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-NAMES = ("ripple", "room", "living_room")
+NAMES = ("ripple", "room", "living_room", "cornell_emissive", "studio")
 DEFAULT_SIZE = (240, 135)
 DEFAULT_FRAMES = 48
 
@@ -152,7 +155,22 @@ def build_living_room(scene, frames: int = DEFAULT_FRAMES) -> None:
     _aim_keys(cam, [(1, (1.9, -1.75, 1.45), (-0.6, 1.2, 0.9)), (n, (0.9, -1.55, 1.35), (-1.0, 1.0, 0.9))])
 
 
-BUILDERS = dict(ripple=build_ripple, room=build_room, living_room=build_living_room)
+def build_cornell_emissive(scene, frames: int = DEFAULT_FRAMES) -> None:
+    n = int(frames)
+    art.build_cornell_emissive(scene)
+    cam = scene.camera
+    _aim_keys(cam, [(1, (0.0, -3.0, 1.0), (0.0, 0.0, 1.0)), (n, (0.45, -2.55, 1.15), (-0.1, 0.2, 0.85))])
+
+
+def build_studio(scene, frames: int = DEFAULT_FRAMES) -> None:
+    n = int(frames)
+    art.build_studio(scene)
+    cam = scene.camera
+    _aim_keys(cam, [(1, (0.0, -3.6, 1.2), (0.0, 0.4, 0.5)), (n, (-0.9, -3.2, 1.4), (0.05, 0.4, 0.45))])
+
+
+BUILDERS = dict(ripple=build_ripple, room=build_room, living_room=build_living_room,
+                cornell_emissive=build_cornell_emissive, studio=build_studio)
 
 
 def build(name: str, size=DEFAULT_SIZE, frames: int = DEFAULT_FRAMES):

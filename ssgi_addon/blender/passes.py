@@ -394,7 +394,12 @@ last_sources: dict[str, str] = {}
 REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings_no_lamp_culled"
 
 
-def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False):
+# The render path's rest render stands area lights in for planar emitters (direct_light.emitter_proxies): EEVEE
+# lights nothing from an emissive mesh off screen, so its reflections of the walls a panel lights were dark
+REST_EMITTER_PROXIES = True
+
+
+def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False, proxies: bool = False):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -409,13 +414,18 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False):
     floor (docs/artists.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
     pass, EEVEE's own diffuse light). With ``gi`` ray tracing and fast GI are switched on whatever the scene says
     (their other settings stay the artist's): the one-render models were trained on EEVEE's diffuse light with
-    both on. The settings it changes are put back."""
+    both on. With ``proxies`` an area light stands in for each planar emitter during the render
+    (``direct_light.emitter_proxies``; the render path's and the bakes' rest, ``REST_EMITTER_PROXIES``), so that
+    EEVEE's reflections and transmission see the light the emitters cast; without, the render is EEVEE's own.
+    The settings it changes are put back."""
+    from . import direct_light
+
     _check_camera(scene)
     for g in groups:
         if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + EXTRA_GROUPS:
             raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: "
                              f"{SHARED_GROUPS + REST_LIGHT_GROUPS + EXTRA_GROUPS}")
-    with _settings_kept(scene):
+    with _settings_kept(scene), (direct_light.emitter_proxies(scene) if proxies else contextlib.nullcontext()):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
@@ -452,7 +462,7 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround"
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
-                   raster_samples: int | None = None) -> dict[str, np.ndarray]:
+                   raster_samples: int | None = None, proxies: bool = REST_EMITTER_PROXIES) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -466,7 +476,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
     from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
     for it, the SHARED_GROUPS (and the motion vectors) come from that render whatever the samples, so that a
-    one-render model's every input is of that one render (docs/one_render.md). The scene's render settings are put back."""
+    one-render model's every input is of that one render (docs/one_render.md). ``proxies``: the rest render
+    stands area lights in for planar emitters (``render_rest``; not for ``eevee_diffuse``, an input the one-render
+    models were trained on without). The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -509,7 +521,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if with_rest:
-        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi)
+        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxies and not gi)
         out["rest"], out["beauty"] = made[:2]
         if rest_groups:
             out.update(made[2])

@@ -46,7 +46,8 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
                        mode)
     if rest_samples and not gi_samples:
         s["eevee"]["rest"] = {"samples": int(rest_samples), "mode": passes.REST_MODE,
-                              "render": "the scene's own EEVEE settings (passes.render_rest), as the node renders it"}
+                              "render": "the scene's own EEVEE settings (passes.render_rest), as the node renders it",
+                              "emitter_proxies": passes.REST_EMITTER_PROXIES}
     if gi_samples:
         s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": True, "fast_gi": True,
                                     "groups_from_it": ["eevee_diffuse", "rest", *passes.SHARED_GROUPS],

@@ -400,7 +400,7 @@ class ReportRun:
             gd = None
             if any(_diffuse_gbuffer(p) for _, p in self._model_keys.values()):
                 gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
-                gd["rest"] = passes.render_rest(scene, s.ssgi_samples)[0]
+                gd["rest"] = passes.render_rest(scene, s.ssgi_samples, proxies=passes.REST_EMITTER_PROXIES)[0]
             g1 = self._one_render_groups(scene, s.ssgi_samples) \
                 if any(_one_render(p) for _, p in self._model_keys.values()) else None
             for key, (path, pred) in self._model_keys.items():

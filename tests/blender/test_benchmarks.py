@@ -50,3 +50,53 @@ def test_components_splits_the_emissive_cornell_box_into_diffuse_and_rest(tmp_pa
     assert abs(m["eevee_rest"] / m["cycles_rest"] - 1) < 0.2, m  # both renderers' rest: the panel, the ball
     assert r["ceiling"]["psnr"] > r["no_network"]["psnr"] + 5, r
     assert Image.open(tmp_path / "cornell_emissive.png").size == (3 * 64 + 8, 2 * 36 + 4)
+
+
+def test_equal_time_measures_every_frame_and_resumes_where_it_was_killed(tmp_path):
+    """benchmarks/equal_time.py on the ripple shot at 48x27 over 6 frames (2 withheld), the shipped model standing
+    in for a fitted one: every frame of both methods is timed, the equal-time spp follows from the measured totals,
+    the withheld frames are scored; a run with one SSGI frame and the equal-time stage taken out of its state
+    renders exactly those again (and no other frame)."""
+    import json
+    import os
+
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    blend = tmp_path / "ripple.blend"
+    p = subprocess.run([sys.executable, "-c", f"""
+import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r})
+import shot_scenes
+sc = shot_scenes.build("ripple", (48, 27), 6)
+sc.eevee.taa_render_samples = 1
+shot_scenes.save(sc, {str(blend)!r})
+"""], capture_output=True, text=True, timeout=300, env=env)
+    assert p.returncode == 0, clean(p.stderr)[-2000:]
+    out = tmp_path / "et"
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "equal_time.py"), "--blend", str(blend), "--model",
+           str(ROOT / "models" / "ssgi_default.pt"), "--fit-minutes", "0.5", "--out", str(out), "--size", "48x27",
+           "--frames", "1-6", "--withheld", "2,5", "--ref-samples", "4", "--probe-samples", "4", "--max-spp", "8"]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=env)
+    assert p.returncode == 0, clean(p.stderr)[-3000:]
+    r = json.loads((out / "equal_time.json").read_text())
+    e, st = r["equal_time"], json.loads((out / "state.json").read_text())
+    assert sorted(map(int, st["ssgi"]["seconds"])) == sorted(map(int, st["cycles1"]["seconds"])) == [1, 2, 3, 4, 5, 6]
+    assert e["ssgi_s"] == sum(st["ssgi"]["seconds"].values()) > 0
+    assert abs(e["budget_s"] - (30.0 + e["ssgi_s"]) / 6) < 1e-9
+    line = e["line"]
+    assert e["spp"] == min(8, max(1, int((e["budget_s"] - line["a"]) // line["b_per_spp"])))
+    assert e["spp"] == 8  # tiny frames: the SSGI frame (several renders) buys Cycles more than the cap
+    assert sorted(map(int, st["equal"]["seconds"])) == [2, 5] and st["equal"]["spp"] == e["spp"]
+    assert set(r["scores"]["methods"]) == {"ssgi", "equal", "cycles1"}
+    for m in r["scores"]["methods"].values():
+        assert 5 < m["psnr"] < 80 and set(m["per_frame"]) == {"2", "5"}
+    assert (out / "frame_0002.png").is_file() and (out / "ssgi").is_dir()
+    # resume: frame 4's SSGI time and the equal-time stage are gone, as if the run had been killed there
+    del st["ssgi"]["seconds"]["4"]
+    del st["equal"]
+    (out / "state.json").write_text(json.dumps(st))
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=env)
+    assert p.returncode == 0, clean(p.stderr)[-3000:]
+    import re
+    done = re.findall(r"(?m)^\d\d:\d\d:\d\d (\w+) frame (\d+):", p.stderr)
+    assert done == [("ssgi", "4"), ("equal", "2"), ("equal", "5")], clean(p.stderr)[-2000:]
+    st2 = json.loads((out / "state.json").read_text())
+    assert st2["ssgi"]["resumed_at"] == [4] and st2["cycles1"]["seconds"] == st["cycles1"]["seconds"]
