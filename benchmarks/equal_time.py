@@ -35,16 +35,10 @@ from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import numpy as np  # noqa: E402
+from fit_shot import uptime  # noqa: E402  (benchmarks/ is on sys.path: the scripts' folder)
 
 STAGE_METHODS = {"ssgi": "SSGI (fitted model, node render path)", "equal": "Cycles + OIDN at equal total time",
                  "cycles1": "Cycles 1 spp + OIDN"}
-
-
-def uptime() -> str:
-    try:
-        return " ".join(Path("/proc/loadavg").read_text().split()[:3])
-    except OSError:
-        return "?"
 
 
 class Store:
@@ -87,6 +81,7 @@ def open_scene(blend, size, model):
 
 
 def stage_ssgi(st: Store, scene, model, frames, withheld, log):
+    from ssgi.model import images
     from ssgi.ssgi_addon.pipeline.render import RenderSession
     secs = st.times("ssgi")
     todo = [f for f in frames if str(f) not in secs]
@@ -103,7 +98,6 @@ def stage_ssgi(st: Store, scene, model, frames, withheld, log):
     for info in ses.iter_frames():
         f = int(info["frame"])
         if f in withheld:
-            from ssgi.model import images
             st.put_image("ssgi", f, np.asarray(info["prediction"], np.float32))
             g = info["groups"]
             st.put_image("mask", f, images.geometry_mask(g["depth"], g["normal"]))

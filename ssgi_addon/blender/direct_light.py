@@ -156,6 +156,21 @@ def _lit_input(sock, colour: bool = False) -> bool:
     return max(v[:3]) > 0.0 if colour else float(v) > 0.0
 
 
+# the (strength, colour) inputs of the shader nodes that give off light
+EMISSION_INPUTS = {"ShaderNodeEmission": ("Strength", "Color"),
+                   "ShaderNodeBsdfPrincipled": ("Emission Strength", "Emission Color")}
+
+
+def _emission_sockets(node):
+    """(strength, colour) sockets of ``node`` when it is an emitting node whose inputs may give off light
+    (``_lit_input``); None otherwise."""
+    names = EMISSION_INPUTS.get(node.bl_idname)
+    if names is None:
+        return None
+    st, col = node.inputs.get(names[0]), node.inputs.get(names[1])
+    return (st, col) if _lit_input(st) and _lit_input(col, colour=True) else None
+
+
 def has_emitters(scene) -> bool:
     """True when a rendered mesh's material may emit light (an Emission shader, or a Principled BSDF with an
     Emission Strength and Colour above 0, or either linked to other nodes). False means the emitter render
@@ -167,11 +182,7 @@ def has_emitters(scene) -> bool:
         if nt is None:
             continue
         for n in nt.nodes:
-            if n.bl_idname == "ShaderNodeEmission" and _lit_input(n.inputs.get("Strength")) \
-                    and _lit_input(n.inputs.get("Color"), colour=True):
-                return True
-            if n.bl_idname == "ShaderNodeBsdfPrincipled" and _lit_input(n.inputs.get("Emission Strength")) \
-                    and _lit_input(n.inputs.get("Emission Color"), colour=True):
+            if _emission_sockets(n) is not None:
                 return True
             if n.bl_idname == "ShaderNodeGroup":  # a group may hide an emitter: render it
                 return True
@@ -189,13 +200,10 @@ def _constant_emission(mat):
     for n in nt.nodes:
         if n.bl_idname == "ShaderNodeGroup":
             return None
-        names = {"ShaderNodeBsdfPrincipled": ("Emission Strength", "Emission Color"),
-                 "ShaderNodeEmission": ("Strength", "Color")}.get(n.bl_idname)
-        if names is None:
+        socks = _emission_sockets(n)
+        if socks is None:
             continue
-        st, col = n.inputs.get(names[0]), n.inputs.get(names[1])
-        if st is None or col is None or not (_lit_input(st) and _lit_input(col, colour=True)):
-            continue
+        st, col = socks
         if st.is_linked or col.is_linked:
             return None
         found.append((float(st.default_value), tuple(float(c) for c in col.default_value[:3])))
@@ -207,15 +215,17 @@ PLANAR_RATIO = 1e-3
 
 
 def planar_emitters(scene) -> list[tuple]:
-    """[(object, strength, colour)] of the rendered mesh objects that are flat (bounding box thinner than
-    ``PLANAR_RATIO`` of its largest side), have one material slot, and emit a constant light
-    (``_constant_emission``): the emitters ``emitter_proxies`` stands a lamp in for."""
+    """[(object, strength, colour)] of the rendered mesh objects that are flat across their local Z (bounding box
+    thinner there than ``PLANAR_RATIO`` of its larger side, as a default plane; a mesh flat along local X or Y is
+    not counted), have one material slot, and emit a constant light (``_constant_emission``): the emitters
+    ``emitter_proxies`` stands a lamp in for."""
     out = []
     for o in scene.objects:
         if o.type != "MESH" or o.hide_render or len(o.material_slots) != 1:
             continue
-        d = sorted(o.dimensions)
-        if d[2] <= 0 or d[0] > PLANAR_RATIO * d[2]:
+        d = o.dimensions
+        side = max(d.x, d.y)
+        if side <= 0 or d.z > PLANAR_RATIO * side or d.z > min(d.x, d.y):
             continue
         e = _constant_emission(o.material_slots[0].material)
         if e is not None:
@@ -243,9 +253,6 @@ def emitter_proxies(scene):
     try:
         for o, strength, colour in planar_emitters(scene):
             d = o.dimensions
-            axes = sorted(range(3), key=lambda i: -d[i])  # the plane's two sides, then its normal
-            if axes[2] != 2:  # a plane lying along local X or Y: not a default plane's layout; skip
-                continue
             rot = o.matrix_world.to_3x3().normalized()
             for side in (rot @ flip, rot):  # an area light shines along its -Z: first the plane's front (+Z)
                 li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "AREA")
