@@ -50,6 +50,8 @@ def main(argv=None) -> int:
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--probe-at", default="0,0,1.3", help="x,y,z of the sphere probe (metres)")
     ap.add_argument("--out", default=None, help="folder for the PNG and rest_settings.json")
+    ap.add_argument("--no-proxies", action="store_true",
+                    help="EEVEE's own rest, without the area lights the render path stands in for planar emitters")
     a = ap.parse_args(argv)
 
     import bpy
@@ -110,7 +112,8 @@ def main(argv=None) -> int:
                         setattr(opts, k, v[k])
                 set_probe(bool(v.get("probe")))
                 t = time.perf_counter()
-                rest, _ = passes.render_rest(scene, v.get("samples"))
+                rest, _ = passes.render_rest(scene, v.get("samples"),
+                                             proxies=passes.REST_EMITTER_PROXIES and not a.no_proxies)
                 secs = time.perf_counter() - t
             finally:
                 for k, x in kept.items():
@@ -134,6 +137,7 @@ def main(argv=None) -> int:
         print(f"mean {n:18s} ceiling {m:.2f} dB")
     if out:
         (out / "rest_settings.json").write_text(json.dumps(dict(blend=str(a.blend), frames=frames, spp=a.spp,
+                                                                 proxies=not a.no_proxies, probe_at=probe_at,
                                                                  per_frame=rows, mean_ceiling=means), indent=1))
     return 0
 

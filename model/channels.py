@@ -93,6 +93,11 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "reflections, transmission (glass), volumes. Not a network input: the SSGI image of a model that "
           "predicts the diffuse part (target ref_diffuse) is prediction + rest (model/infer/compose.py).",
           render_pass=None),
+    Group("gloss", ("R", "G", "B"), "color", "eevee", "use_pass_glossy_color", "reflectance",
+          "EEVEE's Glossy Color pass of the artist-settings render (the render that gives rest): how strongly each "
+          "surface reflects, per channel (a metal's colour, a dielectric's Fresnel-weighted specular). Not a network "
+          "input: a shot's reflection map (model/infer/reflmap.py) corrects EEVEE's reflections by gloss x its field.",
+          render_pass="Glossy Color", preview="color"),
     Group("eevee_diffuse", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE's own diffuse light at the artist's settings with ray tracing and fast GI on: the Diffuse Direct "
           "pass of the render that gives rest (EEVEE 5.0 puts all its diffuse light there: the lamps at their real "
@@ -142,11 +147,11 @@ STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "surround", "rest", "eevee_diffuse", "eevee", "ref_diffuse", "ref")
+                                  "emit_direct", "surround", "rest", "gloss", "eevee_diffuse", "eevee", "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
 OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "rest",
-                                    "eevee_diffuse", "ref_diffuse")
+                                    "gloss", "eevee_diffuse", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
                                  "emit_direct", "surround", "eevee_diffuse", "lit", "scene", "glow", "scene_gi")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or

@@ -29,6 +29,7 @@ class SSGI_PT_fit(JobPanel, bpy.types.Panel):
             row.prop(s, "fit_frame_start")
             row.prop(s, "fit_frame_end")
             col.prop(s, "fit_lightmap")
+            col.prop(s, "fit_reflmap")
 
     def draw_result(self, layout, result):
         layout.label(text=f"Inputs: {', '.join(result.get('inputs') or [])}", icon="CHECKMARK")

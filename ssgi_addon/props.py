@@ -64,6 +64,10 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="Learn Cycles' image minus EEVEE's rest, not only its diffuse "
                                                        "part: the model also makes up for what EEVEE's reflections "
                                                        "miss on surfaces with a diffuse colour (cli.py fit --learn-rest)")
+    fit_reflmap: bpy.props.BoolProperty(name="Shot Reflection Map", default=True,
+                                        description="With Fit the Shot: when the scene has mirrors or metal, also fit a "
+                                                    "world-space correction of EEVEE's reflections beside the model "
+                                                    "(its views then hold EEVEE's rest; off: cli.py fit --no-reflmap)")
     fit_lightmap: bpy.props.BoolProperty(name="Shot Lightmap", default=True,
                                          description="With Fit the Shot: also fit a lightmap of the shot's diffuse light "
                                                      "in world space beside the model, blended where the fit's validation "

@@ -110,10 +110,12 @@ def verdict(final, gen, size, gain_db: float) -> str:
 # ------------------------------------------------------------------------------ a shot's withheld frames
 
 WITHHELD_METHODS = ("fitted", "fitted_network", "generic", "cycles_1spp_oidn", "oracle_diffuse")
-WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "fitted_network": "fitted network alone, without its lightmap",
+WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "fitted_network": "fitted network alone, without its lightmap (with its reflection map, if any)",
                    "generic": "generic model (SSGI node)",
                    "cycles_1spp_oidn": "Cycles 1 spp + OIDN",
-                   "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest"}
+                   "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest (as the node corrects it)",
+                   "oracle_eevee_rest": "ceiling without the reflection map: the reference's diffuse part + EEVEE's "
+                                        "own rest"}
 SHOT_BAR_DB = 35.0  # issue 16: the fitted model on withheld frames
 
 
@@ -246,6 +248,17 @@ def report_markdown(rep: dict, model) -> str:
         if m.get("known"):
             L += ["", f"The kept field learned the diffuse light minus the frame's own {' + '.join(m['known'])}; the node "
                   "adds those passes back each frame, so direct light and moving shadows come from the frame itself."]
+    if rep.get("reflmap"):
+        m = rep["reflmap"]
+        L += ["", "## Shot reflection map", "",
+              f"A world-space field of the correction to EEVEE's reflections (model/infer/reflmap.py), "
+              f"{m['points']:,} glossy pixels of the training views, {m['steps']:,} steps in "
+              f"{_n(m['seconds'], '{:.0f}')} s (L1 {_n(m.get('loss_without'), '{:.4f}')} -> {_n(m.get('loss'), '{:.4f}')}); "
+              f"added to EEVEE's rest with weight **{m['lam']:g}** (0: not used), chosen on the validation views "
+              "(Cycles' diffuse part + EEVEE's rest + weight x the map, against Cycles):", "",
+              "| weight | " + " | ".join(str(k) for k in m["val_psnr"]) + " |",
+              "|---|" + "---:|" * len(m["val_psnr"]),
+              "| val PSNR (dB) | " + " | ".join(_n(v) for v in m["val_psnr"].values()) + " |"]
     if rep.get("withheld"):
         L += withheld_markdown(rep["withheld"])
     L += ["", f"Data: {rep['data']}", f"Command: `{rep['command']}`", ""]

@@ -120,9 +120,10 @@ def project(points: np.ndarray, M, P, width: int, height: int) -> tuple[np.ndarr
     return (ndc[..., 0] + 1) / 2 * width - 0.5, (1 - ndc[..., 1]) / 2 * height - 0.5, -pc[..., 2]
 
 
-def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray) -> np.ndarray:
+def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray, normals: bool = True) -> np.ndarray:
     """HxW bool: pixels beside a depth discontinuity or crease (second difference of 1/depth), or whose 3 x 3
-    neighbourhood changes normal or albedo (module doc)."""
+    neighbourhood changes normal (unless not ``normals``: a small sphere's normals change that fast everywhere)
+    or albedo (module doc)."""
     def spread(a):  # 3 x 3 max - min, edge pixels repeated, separably (numpy only: the extension ships no scipy)
         ap = np.pad(a, 1, mode="edge")
         hi = np.maximum(np.maximum(ap[:, :-2], ap[:, 1:-1]), ap[:, 2:])
@@ -143,7 +144,8 @@ def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray) -> np.ndarr
     n = np.nan_to_num(np.asarray(normal, np.float32))
     a = np.log(np.maximum(np.nan_to_num(np.asarray(albedo, np.float32)), 1e-3))
     for c in range(3):
-        e |= spread(n[..., c]) > EDGE_NORMAL
+        if normals:
+            e |= spread(n[..., c]) > EDGE_NORMAL
         e |= spread(a[..., c]) > EDGE_LOG_ALBEDO
     return e
 
@@ -171,6 +173,51 @@ def encode(points: np.ndarray, normals: np.ndarray, lo, hi, nfreq: int) -> np.nd
     return np.concatenate(fs, -1)
 
 
+def mlp(h: np.ndarray, weights) -> np.ndarray:
+    """An MLP's output for features ``h`` (NxD): ``weights`` [(W, b), ...], ReLU between layers (numpy)."""
+    for i, (w, b) in enumerate(weights):
+        h = h @ w.T + b
+        if i < len(weights) - 1:
+            np.maximum(h, 0.0, out=h)
+    return h
+
+
+def save_field(path, weights, meta: dict, **arrays) -> Path:
+    """Write an MLP field's file (a shot's lightmap or reflection map) atomically: its layers, ``arrays`` and
+    ``meta`` (JSON)."""
+    import json
+
+    from .. import files
+    out = {f"w{i}": w for i, (w, _) in enumerate(weights)}
+    out.update({f"b{i}": b for i, (_, b) in enumerate(weights)})
+    out.update(arrays, meta=np.array(json.dumps(meta, default=str)))
+
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **out)
+    return files.atomic_write(Path(path), write)
+
+
+def load_field(path, keys, fmt: int, what: str) -> tuple[list, dict, dict]:
+    """(layers, {key: array}, meta) of an MLP field's file; UserError naming the file when it is not one of
+    ``what`` (missing ``keys``, another ``format``) or cannot be read."""
+    import json
+    import zipfile
+    try:
+        with np.load(Path(path), allow_pickle=False) as z:
+            missing = [k for k in keys if k not in z.files]
+            if missing:
+                raise UserError(f"{path}: not an SSGI {what} (no {', '.join(missing)})")
+            if int(z["format"]) != fmt:
+                raise UserError(f"{path}: {what} format {int(z['format'])}, this SSGI reads {fmt}")
+            n = sum(1 for k in z.files if k.startswith("w"))
+            weights = [(z[f"w{i}"], z[f"b{i}"]) for i in range(n)]
+            meta = json.loads(str(z["meta"])) if "meta" in z.files else {}
+            return weights, {k: z[k] for k in z.files if not k.startswith(("w", "b")) and k != "meta"}, meta
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as e:
+        raise UserError(f"{path}: cannot read the {what} ({type(e).__name__}: {e})") from None
+
+
 class Lightmap:
     """The fitted field: ``weights`` [(W, b), ...] of an MLP with ReLU between layers (numpy), the box ``lo``/``hi``,
     ``nfreq``, the blend weight ``lam`` and the ``known`` groups it adds back (module doc)."""
@@ -195,12 +242,8 @@ class Lightmap:
         pts, nrm = np.reshape(points, (-1, 3)), np.reshape(normals, (-1, 3))
         out = np.empty((len(pts), 3), np.float32)
         for s in range(0, len(pts), chunk):
-            h = encode(pts[s:s + chunk], nrm[s:s + chunk], self.lo, self.hi, self.nfreq)
-            for i, (w, b) in enumerate(self.weights):
-                h = h @ w.T + b
-                if i < len(self.weights) - 1:
-                    np.maximum(h, 0.0, out=h)
-            out[s:s + chunk] = h
+            out[s:s + chunk] = mlp(encode(pts[s:s + chunk], nrm[s:s + chunk], self.lo, self.hi, self.nfreq),
+                                   self.weights)
         out = np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
         return out if self.known else np.maximum(out, 0.0)
 
@@ -243,34 +286,16 @@ class Lightmap:
     # --- the file ---
 
     def save(self, path) -> Path:
-        from .. import files
-        arrays = {f"w{i}": w for i, (w, _) in enumerate(self.weights)}
-        arrays.update({f"b{i}": b for i, (_, b) in enumerate(self.weights)})
-        arrays.update(lo=self.lo, hi=self.hi, nfreq=np.int64(self.nfreq), lam=np.float64(self.lam),
-                      format=np.int64(FORMAT), known=np.array("+".join(self.known)), meta=np.array(__import__("json").dumps(self.meta, default=str)))
-
-        def write(tmp):
-            with open(tmp, "wb") as fh:
-                np.savez(fh, **arrays)
-        return files.atomic_write(Path(path), write)
+        return save_field(path, self.weights, self.meta, lo=self.lo, hi=self.hi, nfreq=np.int64(self.nfreq),
+                          lam=np.float64(self.lam), format=np.int64(FORMAT), known=np.array("+".join(self.known)))
 
     @classmethod
     def load(cls, path) -> "Lightmap":
-        import json
-        import zipfile
+        weights, z, meta = load_field(path, KEYS, FORMAT, "lightmap")
         try:
-            with np.load(Path(path), allow_pickle=False) as z:
-                missing = [k for k in KEYS if k not in z.files]
-                if missing:
-                    raise UserError(f"{path}: not an SSGI lightmap (no {', '.join(missing)})")
-                if int(z["format"]) != FORMAT:
-                    raise UserError(f"{path}: lightmap format {int(z['format'])}, this SSGI reads {FORMAT}")
-                n = sum(1 for k in z.files if k.startswith("w"))
-                weights = [(z[f"w{i}"], z[f"b{i}"]) for i in range(n)]
-                meta = json.loads(str(z["meta"])) if "meta" in z.files else {}
-                known = tuple(k for k in str(z["known"]).split("+") if k) if "known" in z.files else ()
-                return cls(weights, z["lo"], z["hi"], int(z["nfreq"]), float(z["lam"]), meta, known)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as e:
+            known = tuple(k for k in str(z["known"]).split("+") if k) if "known" in z else ()
+            return cls(weights, z["lo"], z["hi"], int(z["nfreq"]), float(z["lam"]), meta, known)
+        except (ValueError, TypeError) as e:
             raise UserError(f"{path}: cannot read the lightmap ({type(e).__name__}: {e})") from None
 
 

@@ -74,25 +74,56 @@ def points(data_dir, cameras: dict, keys, target: str, known=()) -> tuple[np.nda
 
 
 class _Field(torch.nn.Module):
-    def __init__(self, lo, hi, nfreq: int, hidden: int = HIDDEN, layers: int = LAYERS):
+    """The MLP of a position (scaled to [-1, 1] over lo..hi, ``nfreq`` Fourier octaves) and a unit vector (the
+    normal; a reflection map's reflected direction, with ``nfreq_dir`` octaves): lightmap.encode's / reflmap.encode's
+    features, in that order."""
+
+    def __init__(self, lo, hi, nfreq: int, hidden: int = HIDDEN, layers: int = LAYERS, nfreq_dir: int = 0):
         super().__init__()
         self.register_buffer("lo", torch.tensor(np.asarray(lo, np.float32)))
         self.register_buffer("hi", torch.tensor(np.asarray(hi, np.float32)))
-        self.nfreq = nfreq
-        dims = [6 + 6 * nfreq] + [hidden] * layers + [3]
+        self.nfreq, self.nfreq_dir = nfreq, nfreq_dir
+        dims = [6 + 6 * nfreq + 6 * nfreq_dir] + [hidden] * layers + [3]
         self.layers = torch.nn.ModuleList(torch.nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
 
     def forward(self, p, n):
         x = (p - self.lo) / torch.clamp(self.hi - self.lo, min=1e-6) * 2.0 - 1.0
         fs = [x, n]
-        for i in range(self.nfreq):
-            fs += [torch.sin(x * (math.pi * 2 ** i)), torch.cos(x * (math.pi * 2 ** i))]
+        for v, octaves in ((x, self.nfreq), (n, self.nfreq_dir)):
+            for i in range(octaves):
+                fs += [torch.sin(v * (math.pi * 2 ** i)), torch.cos(v * (math.pi * 2 ** i))]
         h = torch.cat(fs, 1)
         for i, layer in enumerate(self.layers):
             h = layer(h)
             if i < len(self.layers) - 1:
                 h = torch.relu(h)
         return h
+
+
+def train_steps(net, loss_of, n: int, seconds: float, steps: int | None, seed: int, log, name: str, lr: float = LR,
+                batch: int = BATCH) -> tuple[int, list, float]:
+    """Adam on ``loss_of(indices)`` over random batches of ``n`` points, the learning rate on a cosine over
+    ``seconds`` (or ``steps`` when that comes first); (steps, losses, seconds). Shared by the shot's lightmap and
+    its reflection map (model/learn/reflmap.py)."""
+    opt = torch.optim.Adam(net.parameters(), lr)
+    g = torch.Generator().manual_seed(seed)
+    t0, step, run = time.perf_counter(), 0, []
+    while True:
+        el = time.perf_counter() - t0
+        if el >= seconds or (steps is not None and step >= steps):
+            break
+        done = max(el / max(seconds, 1e-6), step / steps if steps else 0.0)
+        for grp in opt.param_groups:
+            grp["lr"] = lr * 0.5 * (1.0 + math.cos(math.pi * min(done, 1.0)))
+        loss = loss_of(torch.randint(0, n, (min(batch, n),), generator=g))
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        step += 1
+        run.append(float(loss.detach()))
+        if log and step % 1000 == 0:
+            log(f"{name}: step {step}, loss {np.mean(run[-200:]):.4f}, {el:.0f} s")
+    return step, run, time.perf_counter() - t0
 
 
 def train_field(pos: np.ndarray, nrm: np.ndarray, y: np.ndarray, seconds: float, seed: int = 0,
@@ -104,28 +135,11 @@ def train_field(pos: np.ndarray, nrm: np.ndarray, y: np.ndarray, seconds: float,
     torch.manual_seed(seed)
     lo, hi = pos.min(0), pos.max(0)
     net = _Field(lo, hi, nfreq)
-    opt = torch.optim.Adam(net.parameters(), LR)
     P, N, Y = torch.from_numpy(pos), torch.from_numpy(nrm), torch.from_numpy(y)
-    g = torch.Generator().manual_seed(seed)
-    t0, step, run = time.perf_counter(), 0, []
-    while True:
-        el = time.perf_counter() - t0
-        if el >= seconds or (steps is not None and step >= steps):
-            break
-        done = max(el / max(seconds, 1e-6), step / steps if steps else 0.0)
-        for grp in opt.param_groups:
-            grp["lr"] = LR * 0.5 * (1.0 + math.cos(math.pi * min(done, 1.0)))
-        i = torch.randint(0, len(P), (BATCH,), generator=g)
-        loss = ((net(P[i], N[i]) - Y[i]).abs() / (1.0 + Y[i].abs())).mean()
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-        step += 1
-        run.append(float(loss.detach()))
-        if log and step % 1000 == 0:
-            log(f"lightmap: step {step}, loss {np.mean(run[-200:]):.4f}, {el:.0f} s")
+    step, run, secs = train_steps(net, lambda i: ((net(P[i], N[i]) - Y[i]).abs() / (1.0 + Y[i].abs())).mean(),
+                                  len(P), seconds, steps, seed, log, "lightmap")
     weights = [(layer.weight.detach().numpy(), layer.bias.detach().numpy()) for layer in net.layers]
-    stats = dict(points=int(len(pos)), steps=step, seconds=time.perf_counter() - t0,
+    stats = dict(points=int(len(pos)), steps=step, seconds=secs,
                  loss=float(np.mean(run[-200:])) if run else None, hidden=HIDDEN, layers=LAYERS, nfreq=nfreq,
                  known=list(known))
     return lm.Lightmap(weights, lo, hi, nfreq, 0.0, meta=stats, known=known), stats

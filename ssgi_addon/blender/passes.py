@@ -38,9 +38,12 @@ PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() 
 # groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
 # input of one-render models; issue 15, docs/one_render.md)
 REST_LIGHT_GROUPS = ("eevee_diffuse",)
+# groups only the artist-settings render gives, whatever the samples: its Glossy Color pass (gloss: a shot's
+# reflection map, model/infer/reflmap.py, corrects EEVEE's reflections where it is)
+REST_ONLY_GROUPS = ("gloss",)
 # (not REST_LIGHT_GROUPS: EEVEE's own diffuse light comes from the artist-settings render)
 EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in ch.SAMPLE_GROUPS if ch.GROUPS[g].source == "eevee"
-                                      and g not in REST_LIGHT_GROUPS)
+                                      and g not in REST_LIGHT_GROUPS + REST_ONLY_GROUPS)
 # what a bake renders by default: not the artist-settings render `rest` (the render path and the report render it)
 BAKE_EEVEE_GROUPS: tuple[str, ...] = tuple(g for g in EEVEE_GROUPS if g != "rest")
 AREA_LIGHT_SIZE = 0.01  # m: EEVEE drops area lights under ~5 mm; Cycles renders a size-0 area light black
@@ -422,9 +425,9 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False, 
 
     _check_camera(scene)
     for g in groups:
-        if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + EXTRA_GROUPS:
+        if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS:
             raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: "
-                             f"{SHARED_GROUPS + REST_LIGHT_GROUPS + EXTRA_GROUPS}")
+                             f"{SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS}")
     with _settings_kept(scene), (direct_light.emitter_proxies(scene) if proxies else contextlib.nullcontext()):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
@@ -457,7 +460,8 @@ OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct", "surround")  # surro
 # the extras the render path asks for: "vector" (EEVEE's motion vectors, from the direct-only raster render; the
 # temporal mode)
 EXTRA_GROUPS: tuple[str, ...] = ("vector",)
-INPUT_RENDER_GROUPS: tuple[str, ...] = EEVEE_GROUPS + ("emit_direct", "surround") + EXTRA_GROUPS + REST_LIGHT_GROUPS
+INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround") + EXTRA_GROUPS + REST_LIGHT_GROUPS
+                                        + REST_ONLY_GROUPS)
 
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
@@ -490,12 +494,12 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_sources.clear()
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
     gi = any(g in REST_LIGHT_GROUPS for g in groups)
-    with_rest = "rest" in groups or gi
+    with_rest = "rest" in groups or gi or any(g in REST_ONLY_GROUPS for g in groups)
     # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
     # on the lighting)
     shared = tuple(g for g in groups if g in SHARED_GROUPS + (EXTRA_GROUPS if gi else ())) \
         if merge and with_rest and (rest_at == int(samples) or gi) else ()
-    rest_groups = shared + tuple(g for g in groups if g in REST_LIGHT_GROUPS)
+    rest_groups = shared + tuple(g for g in groups if g in REST_LIGHT_GROUPS + REST_ONLY_GROUPS)
     raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",) + rest_groups)
     out = {}
 

@@ -34,6 +34,7 @@ def config(args) -> FitSceneConfig:
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
                           frames=args.frames, learn_rest=args.learn_rest,
                           rest_samples=args.rest_samples, lightmap=not args.no_lightmap,
+                          reflmap=not args.no_reflmap,
                           command=command_line())
 
 
@@ -110,6 +111,9 @@ def register_cli(sub) -> None:
                    help="shortest training run worth starting (default 5; lower only for tiny test budgets)")
     p.add_argument("--threads", type=cliargs.positive_int, default=None, help="torch threads")
     p.add_argument("--seed", type=int, default=D.seed)
+    p.add_argument("--no-reflmap", action="store_true",
+                   help="a shot fit (--frames) fits no reflection map beside the model (model/infer/reflmap.py), and "
+                        "its views hold no EEVEE rest for it")
     p.add_argument("--no-lightmap", action="store_true",
                    help="a shot fit (--frames) fits no lightmap beside the model (model/infer/lightmap.py)")
     p.add_argument("--learn-rest", action="store_true",
@@ -117,7 +121,7 @@ def register_cli(sub) -> None:
                         "the model also makes up for what EEVEE's reflections miss on surfaces with a diffuse colour "
                         "(e.g. the glossy glow of an emissive lamp on default Principled walls); metal stays EEVEE's")
     p.add_argument("--rest-samples", type=cliargs.positive_int, default=None, metavar="N",
-                   help="with --learn-rest: EEVEE samples of the views' rest (default: the scene's own, as the node "
-                        "renders it; fewer make the bake cheaper)")
+                   help="with --learn-rest, or a shot fit's reflection map: EEVEE samples of the views' rest "
+                        "(default: the scene's own, as the node renders it; fewer make the bake cheaper)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)

@@ -28,7 +28,8 @@ DEFAULT_EEVEE_SAMPLES = 1
 CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
 # what a new folder's samples hold: every input group and both references, not the artist-settings render rest
 # (nor the render path's extras: the motion vectors are not a network input)
-BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS if g not in ("rest",) + passes.EXTRA_GROUPS)
+BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS
+                          if g not in ("rest",) + passes.EXTRA_GROUPS + passes.REST_ONLY_GROUPS)
 BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_GROUPS) + CYCLES_SAMPLE_GROUPS
 # a one-render bake (--gi-samples N; issue 15, docs/one_render.md): what one-render models read, all of it from
 # the artist-settings render at N samples with ray tracing and fast GI on (eevee_diffuse, albedo, normal, depth,
@@ -183,7 +184,7 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
     manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
                                  groups=ONE_RENDER_BAKE_GROUPS if gi_samples else
-                                 BAKE_GROUPS + (("rest",) if rest_samples else ()))
+                                 BAKE_GROUPS + (("rest",) + passes.REST_ONLY_GROUPS if rest_samples else ()))
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
         manifest["settings"]["shard"] = list(shard)
@@ -191,7 +192,9 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     keep_sky = manifest["settings"].get("eevee", {}).get("world") != "black"
     # ... and a folder begun before a group existed (`world`; `emission`, `direct_soft`, `ref_diffuse`) goes on
     # without it
-    eevee_groups = tuple(g for g in ds.stored_groups(manifest) if g in BAKE_INPUT_GROUPS + ("rest",))
+    # (a folder with rest holds the rest render's Glossy Color too, gloss, unless it was begun before gloss existed)
+    eevee_groups = tuple(g for g in ds.stored_groups(manifest)
+                         if g in BAKE_INPUT_GROUPS + ("rest",) + passes.REST_ONLY_GROUPS)
     gi_samples = int(manifest["settings"].get("eevee", {}).get("one_render", {}).get("gi_samples", 0))
     # (a folder goes on as it was begun: with rest at its samples, or without)
     rest_samples = int(manifest["settings"].get("eevee", {}).get("rest", {}).get("samples", 0))

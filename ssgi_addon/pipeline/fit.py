@@ -48,6 +48,9 @@ FIT_REF_SAMPLES = 16
 # about 2 minutes on the benchmark shots, docs/fit_shot.md)
 LIGHTMAP_SHARE = 0.2
 LIGHTMAP_MAX_S = 150.0
+# a shot's reflection map (model/infer/reflmap.py) trains for this share of the training budget, at most REFLMAP_MAX_S
+REFLMAP_SHARE = 0.06
+REFLMAP_MAX_S = 60.0
 # a second starting checkpoint for shot fits (the model shipped before the current one, commit b52fc1b; its
 # metadata beside it): on the room shot it fine-tunes to 28.16 dB val (withheld frames 32.88 dB) where the shipped
 # model reaches 25.87 (28.68), the same 5 minutes on the same views; on the living room the two are level
@@ -111,11 +114,14 @@ class FitSceneConfig:
     # learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: the fitted
     # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit_shot.md, "Learning the rest")
     learn_rest: bool = False
-    # with learn_rest: the samples of the views' rest (None: the scene's own EEVEE samples, as the node renders it;
-    # fewer make the bake cheaper, docs/fit_shot.md)
+    # with learn_rest or a shot's reflection map: the samples of the views' rest (None: the scene's own EEVEE samples,
+    # as the node renders it; fewer make the bake cheaper, docs/fit_shot.md)
     rest_samples: int | None = None
     # a shot fit also fits a lightmap (model/infer/lightmap.py) beside the model, when its views allow (off: --no-lightmap)
     lightmap: bool = True
+    # ... and a reflection map (model/infer/reflmap.py) when its views show glossy surfaces: the views then hold
+    # EEVEE's rest and Glossy Color at the node's settings (off: --no-reflmap)
+    reflmap: bool = True
     command: str | None = None  # recorded in the checkpoint
 
     def check(self) -> None:
@@ -133,9 +139,10 @@ class FitSceneConfig:
             raise UserError(f"--minutes must be > 0 (got {self.minutes})")
         if self.ref_samples < 1:
             raise UserError(f"--ref-samples {self.ref_samples}: must be positive")
-        if self.rest_samples is not None and (not self.learn_rest or self.rest_samples < 1):
-            raise UserError(f"--rest-samples {self.rest_samples}: give a positive count, with --learn-rest (only a fit "
-                            "that learns the rest bakes it)")
+        if self.rest_samples is not None and (not (self.learn_rest or (self.reflmap and self.frames))
+                                              or self.rest_samples < 1):
+            raise UserError(f"--rest-samples {self.rest_samples}: give a positive count, with --learn-rest or a shot "
+                            "fit's reflection map (only those bake the rest)")
         fault = cliargs.model_file_fault(self.init) if self.init else None
         if fault:  # before any baking
             raise UserError(f"--init {self.init}: {fault}")
@@ -193,6 +200,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         plan.update(size=list(size), blend=str(blend))
         if cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
             plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
+        elif cfg.reflmap and plan.get("test_frames") and has_glossy(scene):  # (and its Glossy Color: reflmap)
+            plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
         work.mkdir(parents=True, exist_ok=True)
         # views of THIS file with THESE settings: an edited scene gets new views, an unchanged one resumes
         tag = fviews.views_tag(blend, plan)
@@ -217,7 +226,10 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     floor = max(0.1 * 60.0 * cfg.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
     fit_minutes = max(left, floor) / 60.0
     lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
-    fit_minutes -= lightmap_s / 60.0
+    # (not with --learn-rest: that model learns Cycles minus EEVEE's own rest, which a corrected rest would count twice)
+    glossy = bool(cameras) and cfg.reflmap and not cfg.learn_rest and "gloss" in _stored_groups(data_dir)
+    reflmap_s = min(REFLMAP_MAX_S, REFLMAP_SHARE * 60.0 * fit_minutes) if glossy else 0.0
+    fit_minutes -= (lightmap_s + reflmap_s) / 60.0
     if left < floor:
         log(f"fit: the bake took {bake_s / 60:.2f} of {cfg.minutes:g} min; fitting gets {fit_minutes:.2f} min "
             "(the whole fit will run over the budget)")
@@ -237,8 +249,9 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         mcfg.min_run_s = cfg.min_run_s
     res = mfit.fit(mcfg, callback=progress, should_stop=should_stop)
     if res.get("status") == "done":  # a new model is written: a lightmap beside it belongs to it, or there is none
-        from ...model.infer import lightmap as ilm
+        from ...model.infer import lightmap as ilm, reflmap as irm
         ilm.path_for(res["model"]).unlink(missing_ok=True)
+        irm.path_for(res["model"]).unlink(missing_ok=True)
     if cameras and res.get("status") == "done":
         report(dict(phase="lightmap", message="fitting the shot's lightmap", progress=1.0))
         try:  # the model is written: a lightmap that cannot be fitted costs the shot its lightmap, not its model
@@ -246,6 +259,12 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
                                                 mcfg.target or ch.DIFFUSE_TARGET, lightmap_s, cfg.seed, log)
         except UserError as e:
             log(f"fit: no lightmap: {e}")
+    if glossy and res.get("status") == "done":
+        report(dict(phase="reflmap", message="fitting the shot's reflection map", progress=1.0))
+        try:  # as the lightmap: a map that cannot be fitted costs the shot its map, not its model
+            res["reflmap"] = fit_shot_reflmap(data_dir, cameras, train, val, res["model"], reflmap_s, cfg.seed, log)
+        except UserError as e:
+            log(f"fit: no reflection map: {e}")
     fit_s = time.perf_counter() - t0  # the fit: bake + training + its report (the budget's)
     w = None
     if withheld and res.get("status") == "done":
@@ -270,6 +289,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
             rep.update(withheld=w, verdict=res["verdict"], fit_verdict=rep.get("verdict"))
         if res.get("lightmap"):
             rep.update(lightmap=res["lightmap"])
+        if res.get("reflmap"):
+            rep.update(reflmap=res["reflmap"])
         fit_report.write(rep, res["model"])
     return res
 
@@ -307,6 +328,57 @@ def fit_shot_lightmap(data_dir, cameras: dict, train, val, model, target: str, s
     path = field.save(ilm.path_for(model))
     rep.update(file=str(path))
     return rep
+
+
+def fit_shot_reflmap(data_dir, cameras: dict, train, val, model, seconds: float, seed: int, log) -> dict:
+    """Fit the reflection map of a shot (model/learn/reflmap.py) and write it beside ``model`` (its weight chosen on
+    the validation views; a weight of 0 is written too, and the node then ignores it). Returns its report."""
+    from ...model.infer import reflmap as irm
+    from ...model.learn import reflmap as lrm
+    field, rep = lrm.fit_reflmap(data_dir, cameras, train, val, seconds, seed=seed, log=log)
+    path = field.save(irm.path_for(model))
+    rep.update(file=str(path))
+    return rep
+
+
+def _stored_groups(data_dir) -> tuple[str, ...]:
+    from ...model.dataset import folder
+    try:
+        return tuple(folder.stored_groups(folder.open_folder(data_dir)))
+    except UserError:
+        return ()
+
+
+def has_glossy(scene) -> bool:
+    """Whether any visible mesh of ``scene`` has a material that reflects like a mirror or a metal: a Principled BSDF
+    with metallic above 0.5, or roughness below 0.3 with its specular left on, or a Glossy / Metallic BSDF node,
+    read from unlinked inputs (a linked input counts as glossy). What decides whether a shot fit bakes the rest and
+    Glossy Color its reflection map needs (module reflmap): a diffuse room skips that cost."""
+    def value(node, name, default):
+        s = node.inputs.get(name)
+        if s is None:
+            return default
+        return None if s.is_linked else float(s.default_value)
+
+    for ob in scene.objects:
+        if ob.type != "MESH" or ob.hide_render:
+            continue
+        for slot in ob.material_slots:
+            m = slot.material
+            if m is None or not m.use_nodes or m.node_tree is None:
+                continue
+            for n in m.node_tree.nodes:
+                if n.bl_idname in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic", "ShaderNodeBsdfMetallic"):
+                    return True
+                if n.bl_idname == "ShaderNodeBsdfPrincipled":
+                    metal = value(n, "Metallic", 0.0)
+                    rough = value(n, "Roughness", 0.5)
+                    spec = value(n, "Specular IOR Level", 0.5)
+                    if metal is None or metal > 0.5:
+                        return True
+                    if (rough is None or rough < 0.3) and (spec is None or spec > 0.0):
+                        return True
+    return False
 
 
 WITHHELD_HOW = ("The fitted model through RenderSession (the SSGI node's render path: EEVEE passes at the file's "
@@ -362,7 +434,9 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
             t = time.perf_counter()
             want = ch.required_groups(tuple(gen.spec)) + ("normal", "depth", "albedo")
             p = gen.predict({k: g[k] for k in dict.fromkeys(want) if k in g})
-            imgs["generic"] = compose(p, g, scene.camera.data.clip_end, gen.target)
+            # (the generic model with EEVEE's own rest: the reflection map belongs to the fit)
+            imgs["generic"] = compose(p, g | {"rest": g.get("rest_eevee", g.get("rest"))}, scene.camera.data.clip_end,
+                                      gen.target)
             secs["generic"] = info["t_passes"] + time.perf_counter() - t
         with preserved(scene):
             t = time.perf_counter()
@@ -373,6 +447,9 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
         ref = refs["ref"]
         if ch.adds_rest(session.target):  # the ceiling of any diffuse-part model: EEVEE's rest is kept
             imgs["oracle_diffuse"] = compose(refs["ref_diffuse"], g, scene.camera.data.clip_end, ch.DIFFUSE_TARGET)
+            if "rest_eevee" in g:  # (with the reflection map, the ceiling above; EEVEE's own rest, this one)
+                imgs["oracle_eevee_rest"] = compose(refs["ref_diffuse"], g | {"rest": g["rest_eevee"]},
+                                                    scene.camera.data.clip_end, ch.DIFFUSE_TARGET)
         out.append(dict(frame=f, ref=ref, mask=images.geometry_mask(g["depth"], g["normal"]), images=imgs,
                         seconds=secs))
         log(f"fit: withheld frame {f}: " + ", ".join(f"{k} {v:.1f} s" for k, v in secs.items()))

@@ -194,6 +194,12 @@ class RenderSession:
             self.groups = tuple(dict.fromkeys(self.groups + self.lightmap.known))  # the direct light it adds back
             log(f"lightmap {lightmap.path_for(self.model_path).name}: weight {self.lightmap.lam:g}"
                 + (f", known light {'+'.join(self.lightmap.known)}" if self.lightmap.known else ""))
+        # ... and its reflection map (model/infer/reflmap.py): corrects EEVEE's rest where the Glossy Color is
+        from ...model.infer import reflmap
+        self.reflmap = reflmap.load_beside(self.model_path) if ch.adds_rest(self.target) else None
+        if self.reflmap is not None:
+            self.groups = tuple(dict.fromkeys(self.groups + ("gloss",)))
+            log(f"reflection map {reflmap.path_for(self.model_path).name}: weight {self.reflmap.lam:g}")
         self.cancelled = False
         self.results: list[dict] = []
 
@@ -206,6 +212,11 @@ class RenderSession:
         missing = [g for g in self.groups if g not in groups]
         if missing:
             raise UserError(f"the pass render returned no {', '.join(missing)} for scene {self.scene.name!r}")
+        if self.reflmap is not None:  # EEVEE's own rest stays beside the corrected one (rest_eevee: the fit report)
+            from ..blender.views import camera_matrices
+            c = camera_matrices(self.scene)
+            groups["rest_eevee"] = groups["rest"]
+            groups["rest"] = self.reflmap.apply(groups["rest"], groups, c["M"], c["P"])
         return groups
 
     def predict_network(self, groups: dict):

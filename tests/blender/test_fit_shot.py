@@ -119,6 +119,13 @@ np.save({str(got)!r}, passes.render_rest(sc, 1, proxies=passes.REST_EMITTER_PROX
     assert np.abs(again - g["rest"][..., :3]).mean() < 0.02 * max(1e-3, float(np.abs(again).mean()))
     ck = checkpoint.load(shot_fit["model"])
     assert ck["arch"]["target"] == ch.REST_TARGET
+    # no reflection map beside a model that learned Cycles minus EEVEE's own rest (it would count the rest's
+    # correction twice), though the views hold the rest render's gloss
+    from ssgi.model.evaluate import fit_report
+    from ssgi.model.infer import reflmap as rm
+    assert "gloss" in data_folder.stored_groups(m)
+    assert not rm.path_for(shot_fit["model"]).exists()
+    assert "reflmap" not in json.loads(fit_report.report_paths(shot_fit["model"])[0].read_text())
 
 
 def test_fit_shot_report_scores_exactly_the_withheld_frames(shot_fit):
@@ -279,6 +286,7 @@ r["cmd"] = job.cmd
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
 s.fit_lightmap = False
+s.fit_reflmap = False
 assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}
 job = jobs.get("fit")
 r["cmd_nolm"] = job.cmd
@@ -297,5 +305,7 @@ json.dump(r, open({str(res)!r}, "w"))
     i = r["cmd"].index("--frames")
     assert r["cmd"][i + 1] == "1-20" and "--learn-rest" in r["cmd"]
     assert "--no-lightmap" not in r["cmd"] and "--no-lightmap" in r["cmd_nolm"]  # the shot lightmap: on by default
-    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest", "fit_lightmap"} <= set(r["props"])
+    assert "--no-reflmap" not in r["cmd"] and "--no-reflmap" in r["cmd_nolm"]  # the reflection map too
+    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest", "fit_lightmap",
+            "fit_reflmap"} <= set(r["props"])
     assert "fit_shot" in r["props_off"] and "fit_frame_start" not in r["props_off"] and "fit_lightmap" not in r["props_off"]
