@@ -161,15 +161,18 @@ def blend_weight(groups: dict, lam: float) -> np.ndarray:
 
 # --- the field -----------------------------------------------------------------------------------------
 
-def encode(points: np.ndarray, normals: np.ndarray, lo, hi, nfreq: int) -> np.ndarray:
-    """Nx(6 + 6 nfreq) features: the position scaled to [-1, 1] over the box lo..hi, the normal, and sin/cos of
-    the scaled position at nfreq octaves. The same in the trainer (torch) and here."""
+def encode(points: np.ndarray, normals: np.ndarray, lo, hi, nfreq: int, nfreq_dir: int = 0) -> np.ndarray:
+    """Nx(6 + 6 nfreq + 6 nfreq_dir) features: the position scaled to [-1, 1] over the box lo..hi, the normal (a
+    reflection map's reflected direction), sin/cos of the scaled position at nfreq octaves and of the normal at
+    nfreq_dir octaves. The same in the trainer (torch, model/learn/lightmap._Field) and here."""
     lo, hi = np.asarray(lo, np.float32), np.asarray(hi, np.float32)
     p = (np.asarray(points, np.float32) - lo) / np.maximum(hi - lo, 1e-6) * 2.0 - 1.0
-    fs = [p, np.asarray(normals, np.float32)]
-    for i in range(int(nfreq)):
-        w = np.float32(np.pi * 2 ** i)
-        fs += [np.sin(p * w), np.cos(p * w)]
+    d = np.asarray(normals, np.float32)
+    fs = [p, d]
+    for x, octaves in ((p, nfreq), (d, nfreq_dir)):
+        for i in range(int(octaves)):
+            w = np.float32(np.pi * 2 ** i)
+            fs += [np.sin(x * w), np.cos(x * w)]
     return np.concatenate(fs, -1)
 
 

@@ -14,8 +14,8 @@ of the artist-settings render (channels group ``gloss``): a metal's colour, 0 on
 
 At render time (``ReflectionMap.apply(rest, groups, M, P)``): for each pixel whose gloss exceeds ``GLOSS_MIN`` in
 some channel, that is not an edge (lightmap.edges, with gloss in place of the albedo: an anti-aliased silhouette
-mixes two surfaces; not the normal test, which marks a whole small mirror ball at 96x54) and where something was hit, the world position and normal (lightmap.world_points), the
-view ray from the camera (``M``'s translation; orthographic cameras along ``M``'s -Z), the reflected direction, and
+mixes two surfaces; not the normal test, which marks a whole small mirror ball at 96x54) and where something was
+hit, and for those pixels only: the world position and normal (lightmap.world_points), the view ray from the camera (``M``'s translation; orthographic cameras along ``M``'s -Z), the reflected direction, and
 ``rest + lam x gloss x field``. ``lam`` is chosen by the fit on its validation views; 0 means unused.
 
 What it cannot know: a reflection that changes over the shot (a moving object seen in a mirror, a moving mirror
@@ -46,10 +46,11 @@ def path_for(model_path) -> Path:
     return p.with_name(p.stem + ".reflmap.npz")
 
 
-def reflected(depth: np.ndarray, normal: np.ndarray, M, P) -> tuple[np.ndarray, np.ndarray]:
+def reflected(depth: np.ndarray, normal: np.ndarray, M, P, pixels=None) -> tuple[np.ndarray, np.ndarray]:
     """(HxWx3 world positions, HxWx3 unit world reflection directions) of a frame (``lightmap.world_points``'
-    arguments): the view ray from the camera to each point mirrored about its normal."""
-    pw, nw = lm.world_points(depth, normal, M, P)
+    arguments; with ``pixels``, of those pixels only): the view ray from the camera to each point mirrored about
+    its normal."""
+    pw, nw = lm.world_points(depth, normal, M, P, pixels=pixels)
     M, P = np.asarray(M, np.float64), np.asarray(P, np.float64)
     if P[3, 3] == 0.0:  # perspective: from the camera's position
         v = pw.astype(np.float64) - M[:3, 3]
@@ -71,20 +72,6 @@ def glossy_mask(groups: dict) -> np.ndarray:
     if ok.any():
         ok &= ~lm.edges(groups["depth"], groups["normal"], gl, normals=False)
     return ok
-
-
-def encode(points: np.ndarray, dirs: np.ndarray, lo, hi, nfreq_pos: int, nfreq_dir: int) -> np.ndarray:
-    """Nx(6 + 6 nfreq_pos + 6 nfreq_dir) features: the position scaled to [-1, 1] over lo..hi, the direction, and
-    sin/cos of each at their octaves. The same in the trainer (torch) and here."""
-    lo, hi = np.asarray(lo, np.float32), np.asarray(hi, np.float32)
-    p = (np.asarray(points, np.float32) - lo) / np.maximum(hi - lo, 1e-6) * 2.0 - 1.0
-    d = np.asarray(dirs, np.float32)
-    fs = [p, d]
-    for x, n in ((p, nfreq_pos), (d, nfreq_dir)):
-        for i in range(int(n)):
-            w = np.float32(np.pi * 2 ** i)
-            fs += [np.sin(x * w), np.cos(x * w)]
-    return np.concatenate(fs, -1)
 
 
 def n_features(nfreq_pos: int, nfreq_dir: int) -> int:
@@ -111,8 +98,8 @@ class ReflectionMap:
         pts, d = np.reshape(points, (-1, 3)), np.reshape(dirs, (-1, 3))
         out = np.empty((len(pts), 3), np.float32)
         for s in range(0, len(pts), chunk):
-            out[s:s + chunk] = lm.mlp(encode(pts[s:s + chunk], d[s:s + chunk], self.lo, self.hi, self.nfreq_pos,
-                                             self.nfreq_dir), self.weights)
+            out[s:s + chunk] = lm.mlp(lm.encode(pts[s:s + chunk], d[s:s + chunk], self.lo, self.hi, self.nfreq_pos,
+                                                self.nfreq_dir), self.weights)
         return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
 
     def correction(self, groups: dict, M, P, lam: float | None = None) -> np.ndarray:
@@ -123,8 +110,11 @@ class ReflectionMap:
         ok = glossy_mask(groups)
         if lam <= 0.0 or not ok.any():
             return out
-        pw, r = reflected(groups["depth"], groups["normal"], M, P)
-        out[ok] = lam * gl[ok] * self.field(pw[ok], r[ok])
+        rows, cols = np.nonzero(ok)  # only the corrected pixels are placed in the world
+        z = np.asarray(groups["depth"], np.float32).reshape(ok.shape)
+        pw, r = reflected(z[ok], np.asarray(groups["normal"], np.float32)[..., :3][ok], M, P,
+                          pixels=(cols, rows, ok.shape[1], ok.shape[0]))
+        out[ok] = lam * gl[ok] * self.field(pw, r)
         return out
 
     def apply(self, rest: np.ndarray, groups: dict, M, P) -> np.ndarray:

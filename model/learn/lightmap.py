@@ -75,8 +75,7 @@ def points(data_dir, cameras: dict, keys, target: str, known=()) -> tuple[np.nda
 
 class _Field(torch.nn.Module):
     """The MLP of a position (scaled to [-1, 1] over lo..hi, ``nfreq`` Fourier octaves) and a unit vector (the
-    normal; a reflection map's reflected direction, with ``nfreq_dir`` octaves): lightmap.encode's / reflmap.encode's
-    features, in that order."""
+    normal; a reflection map's reflected direction, with ``nfreq_dir`` octaves): lightmap.encode's features."""
 
     def __init__(self, lo, hi, nfreq: int, hidden: int = HIDDEN, layers: int = LAYERS, nfreq_dir: int = 0):
         super().__init__()

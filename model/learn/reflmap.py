@@ -8,7 +8,7 @@ node's settings (groups ``rest`` and ``gloss``: a shot fit bakes them, ``bake --
    reflection direction (``reflmap.reflected`` with the view's camera matrices, ``cameras.json``), the view's gloss,
    ``base`` = Cycles' diffuse part + EEVEE's rest (what the node shows there with a perfect diffuse prediction) and
    Cycles' image.
-2. **Training.** An MLP (``HIDDEN`` wide, ``LAYERS`` hidden layers, ReLU) on ``reflmap.encode``'s features, Adam,
+2. **Training.** An MLP (``HIDDEN`` wide, ``LAYERS`` hidden layers, ReLU) on ``lightmap.encode``'s features (position and reflected direction), Adam,
    batches of ``BATCH`` random points, the L1 distance between clamp(base + gloss x field, 0, 1) and clamp(Cycles,
    0, 1) (the [0, 1] range the PSNR scores: a highlight above 1 needs no exact value), the learning rate on a
    cosine over the time budget. Bounded by ``seconds``.

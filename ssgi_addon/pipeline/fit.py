@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...model import channels as ch, cliargs, files
+from ...model.dataset import folder as dataset_folder
 from ...model.errors import UserError
 
 MIN_FIT_MINUTES = 0.5
@@ -227,7 +228,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     fit_minutes = max(left, floor) / 60.0
     lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
     # (not with --learn-rest: that model learns Cycles minus EEVEE's own rest, which a corrected rest would count twice)
-    glossy = bool(cameras) and cfg.reflmap and not cfg.learn_rest and "gloss" in _stored_groups(data_dir)
+    glossy = (bool(cameras) and cfg.reflmap and not cfg.learn_rest
+              and "gloss" in dataset_folder.stored_groups(dataset_folder.open_folder(data_dir)))
     reflmap_s = min(REFLMAP_MAX_S, REFLMAP_SHARE * 60.0 * fit_minutes) if glossy else 0.0
     fit_minutes -= (lightmap_s + reflmap_s) / 60.0
     if left < floor:
@@ -339,14 +341,6 @@ def fit_shot_reflmap(data_dir, cameras: dict, train, val, model, seconds: float,
     path = field.save(irm.path_for(model))
     rep.update(file=str(path))
     return rep
-
-
-def _stored_groups(data_dir) -> tuple[str, ...]:
-    from ...model.dataset import folder
-    try:
-        return tuple(folder.stored_groups(folder.open_folder(data_dir)))
-    except UserError:
-        return ()
 
 
 def has_glossy(scene) -> bool:
