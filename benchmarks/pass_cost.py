@@ -18,6 +18,9 @@ scores), and the groups of each variant are compared with the first variant's (P
         [--variants before,merged,...] [--refs /work/reports/artist/data] [--json out.json] [--repeats 3] [--model M.pt]
 
 With a one-render model (``--model``, docs/one_render.md) every variant makes the same single EEVEE render.
+``--blends FILE ... [--frame N]`` times one's own .blend files (a fitted shot's scene) instead of the artist scenes:
+    .venv/bin/python benchmarks/pass_cost.py --blends cornell_emissive.blend --frame 25 --size 960x540 \
+        --model cornell1r.pt --variants merged --repeats 3 --plain-gi
     nice -n 10 .venv/bin/python benchmarks/pass_cost.py --facts [--refs /work/reports/artist/data]
 
 Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
@@ -50,7 +53,7 @@ VARIANTS: dict[str, dict] = {
     "raster1": dict(merge=True, raster_samples=1),
     "rest4": dict(merge=True, raster_samples=1, samples=4),  # the artist-settings render at 4 samples too
 }
-RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest")
+RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround")  # surround: ray casts, no render
 WARM_SIZE = (64, 36)
 
 
@@ -108,8 +111,19 @@ def _cmp(a, b) -> dict:
     return dict(max_abs=float(d.max()), psnr_peak=(math.inf if mse == 0 else 10 * math.log10(peak ** 2 / mse)))
 
 
-def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool = False) -> dict:
-    scene = A.build(name, WARM_SIZE)
+def open_shot(path: str, frame: int):
+    """A .blend of one's own (e.g. benchmarks/shot_scenes.py's) at ``frame``, at the warm-up size."""
+    import bpy
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    scene.frame_set(int(frame))
+    passes.set_resolution(scene, *WARM_SIZE)
+    return scene
+
+
+def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool = False, blend=None,
+              frame: int = 1) -> dict:
+    scene = open_shot(blend, frame) if blend else A.build(name, WARM_SIZE)
     from ssgi.ssgi_addon.blender.compositor import setup_scene
     setup_scene(scene, model)
     ssgi_frame(scene, model, VARIANTS["before"])  # warm-up, untimed
@@ -246,6 +260,9 @@ def main(argv=None) -> int:
     ap.add_argument("--names", nargs="+", default=list(A.NAMES), choices=A.NAMES)
     ap.add_argument("--size", type=parse_size, default=A.DEFAULT_SIZE)
     ap.add_argument("--variants", default="before,merged", help=f"comma-separated, of {', '.join(VARIANTS)}")
+    ap.add_argument("--blends", nargs="+", default=None, metavar="FILE.blend",
+                    help="time these .blend files (at --frame) instead of the artist scenes --names")
+    ap.add_argument("--frame", type=int, default=1, help="the frame of --blends (default 1)")
     ap.add_argument("--model", default=None, help="checkpoint (default: the shipped model)")
     ap.add_argument("--refs", default=None, help="dataset folder with the scenes' Cycles references at --size")
     ap.add_argument("--json", default=None, help="write the rows here")
@@ -268,8 +285,9 @@ def main(argv=None) -> int:
     up = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
     print(f"load before: {up}", file=sys.stderr)
     rows = []
-    for n in a.names:  # the JSON is rewritten after each scene: a stopped run keeps the scenes done
-        rows.append(run_scene(n, a.size, variants, a.model, refs, a.repeats, a.plain_gi))
+    todo = [(Path(b).stem, b) for b in a.blends] if a.blends else [(n, None) for n in a.names]
+    for n, blend in todo:  # the JSON is rewritten after each scene: a stopped run keeps the scenes done
+        rows.append(run_scene(n, a.size, variants, a.model, refs, a.repeats, a.plain_gi, blend=blend, frame=a.frame))
         if a.json:
             Path(a.json).write_text(json.dumps(dict(rows=rows, load_before=up), indent=1))
     up2 = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()

@@ -7,8 +7,10 @@ on, the artist scene's own samples), against the same render writing only Combin
 The scenes are benchmarks/artist_scenes.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
 render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--repeats`` rounds of one render per
 configuration in ``CONFIGS`` (Combined only; Combined + one pass; the five passes a one-render model reads; the five +
-the motion vectors of the temporal mode), all with ray tracing + fast GI on, and ``NO_GI``: Combined only with both
-off (what EEVEE's own GI costs the render). Prints each render's seconds and the minimum; machine-noisy, so quote
+the motion vectors of the temporal mode), all with ray tracing + fast GI on, ``NO_GI`` (Combined only with both off:
+what EEVEE's own GI costs the render) and ``GI_OFF_SETS`` with both off (the passes a GI-off one-render frame would
+read). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs with
+ray tracing and fast GI off as NAME_no_gi. Prints each render's seconds and the minimum; machine-noisy, so quote
 ratios from one run.
 """
 from __future__ import annotations
@@ -28,6 +30,12 @@ VECTOR = "use_pass_vector"
 CONFIGS: dict[str, tuple[str, ...]] = {"combined": (), **{p[len("use_pass_"):]: (p,) for p in PASSES + (VECTOR,)},
                                        "ssgi5": PASSES, "ssgi5+vector": PASSES + (VECTOR,)}
 NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEVEE's own GI costs the render
+# A frame that replaces EEVEE's GI with a network needs no ray tracing or fast GI in its one render: every
+# configuration above also runs with both off as NAME_no_gi (``combined_no_gi`` is NO_GI), and so do the pass sets a
+# GI-off one-render frame could read: colour + diffuse light + the upsampler's normal and depth (ssgi4), colour +
+# diffuse light (ssgi2), colour + normal + depth (ssgi3: a model that reads the Combined pass instead of the light).
+GI_OFF_SETS: dict[str, tuple[str, ...]] = {"ssgi4": PASSES[:4], "ssgi2": PASSES[:2],
+                                           "ssgi3": (PASSES[0], PASSES[2], PASSES[3])}
 
 
 def optional_pass_flags(view_layer) -> list[str]:
@@ -54,7 +62,16 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=parse_size, default=(960, 540))
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--configs", nargs="+", default=None,
+                    help=f"only these configurations, in this order each round (default all: "
+                         f"{' '.join(CONFIGS)}, each also as NAME_no_gi, and {' '.join(GI_OFF_SETS)} as NAME_no_gi)")
     a = ap.parse_args(argv)
+    every = {**{k: (on, True) for k, on in CONFIGS.items()},
+             **{f"{k}_no_gi": (on, False) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()}}
+    for k in a.configs or ():
+        if k not in every:
+            ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
+    chosen = {k: every[k] for k in (a.configs or [*CONFIGS, NO_GI, *(f"{k}_no_gi" for k in GI_OFF_SETS)])}
     res: dict = {}
     for name in a.names:
         bpy.ops.wm.open_mainfile(filepath=f"{a.scenes}/{name}.blend")
@@ -65,11 +82,11 @@ def main(argv=None) -> int:
         render(sc, PASSES + (VECTOR,))
         sc.render.resolution_x, sc.render.resolution_y = a.size
         for _ in range(a.repeats):
-            for k, on in CONFIGS.items():
-                res.setdefault(name, {}).setdefault(k, []).append(render(sc, on))
-            res[name].setdefault(NO_GI, []).append(render(sc, (), gi=False))
+            for k, (on, gi) in chosen.items():
+                res.setdefault(name, {}).setdefault(k, []).append(render(sc, on, gi=gi))
         for k, v in res[name].items():
-            print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}", flush=True)
+            print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}"
+                  f"  median {sorted(v)[len(v) // 2]:6.2f}", flush=True)
     if a.json:
         with open(a.json, "w") as f:
             json.dump(res, f, indent=1)

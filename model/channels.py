@@ -104,6 +104,13 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "size with soft shadows, the world, the traced and fast-GI indirect light). The input of one-render models "
           "(issue 15): every group they read comes from that one render (docs/one_render.md).",
           render_pass="Diffuse Direct", drop_rank=None),
+    Group("eevee_local", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
+          "EEVEE's own diffuse light with ray tracing and fast GI OFF, at the artist's samples, with an area light "
+          "standing in for each planar emitter (the render path's emitter proxies): the lamps at their real size "
+          "with soft shadows and the world's light from the probes, no indirect light. The input of GI-off "
+          "one-render models (issue 15: a frame that is one EEVEE render without EEVEE's GI, docs/one_render.md); "
+          "every group they read comes from that render, and so does the rest.",
+          render_pass="Diffuse Direct", drop_rank=None),
     Group("vector", ("X", "Y", "Z", "W"), "motion", "eevee", "use_pass_vector", "pixels",
           "EEVEE Vector pass (motion vectors): X, Y = the pixel's position in the PREVIOUS frame minus its position "
           "now, Z, W = its position now minus its position in the NEXT frame, in pixels, x right, y UP (measured: "
@@ -147,13 +154,15 @@ STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "surround", "rest", "gloss", "eevee_diffuse", "eevee", "ref_diffuse", "ref")
+                                  "emit_direct", "surround", "rest", "gloss", "eevee_diffuse", "eevee_local", "eevee",
+                                  "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
 OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "rest",
-                                    "gloss", "eevee_diffuse", "ref_diffuse")
+                                    "gloss", "eevee_diffuse", "eevee_local", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                 "emit_direct", "surround", "eevee_diffuse", "lit", "scene", "glow", "scene_gi")
+                                 "emit_direct", "surround", "eevee_diffuse", "eevee_local", "lit", "scene", "glow",
+                                 "scene_gi")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 # A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what

@@ -64,6 +64,10 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="Learn Cycles' image minus EEVEE's rest, not only its diffuse "
                                                        "part: the model also makes up for what EEVEE's reflections "
                                                        "miss on surfaces with a diffuse colour (cli.py fit --learn-rest)")
+    fit_one_render: bpy.props.BoolProperty(name="One Render (no EEVEE GI)", default=False,
+                                           description="Fit a model whose frames are one EEVEE render with ray tracing "
+                                                       "and fast GI off: the fitted network gives the GI, a frame costs "
+                                                       "less than EEVEE's own GI (cli.py fit --one-render)")
     fit_reflmap: bpy.props.BoolProperty(name="Shot Reflection Map", default=True,
                                         description="With Fit the Shot: when the scene has mirrors or metal, also fit a "
                                                     "world-space correction of EEVEE's reflections beside the model "

@@ -71,6 +71,18 @@ def run_py(code: str, *args: str, timeout: float = 600, cwd: Path | None = None,
     return p
 
 
+def save_shot(name: str, path, size: tuple[int, int], last_frame: int, timeout: float = 180) -> None:
+    """Build benchmarks/shot_scenes.py's shot ``name`` at ``size`` over frames 1..``last_frame``, at 1 EEVEE sample
+    (tiny test renders), and save it to ``path``."""
+    run_py(f'''
+sys.path.insert(0, {str(ROOT / "benchmarks")!r})
+import shot_scenes
+sc = shot_scenes.build({name!r}, {tuple(size)!r}, {int(last_frame)})
+sc.eevee.taa_render_samples = 1
+shot_scenes.save(sc, {str(path)!r})
+''', timeout=timeout)
+
+
 def run_cli(*args: str, timeout: float = 600, check: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
     """Run ``cli.py ARGS`` in a subprocess with isolated user resources."""
     user = _user_dir()

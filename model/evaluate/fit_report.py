@@ -109,9 +109,10 @@ def verdict(final, gen, size, gain_db: float) -> str:
 
 # ------------------------------------------------------------------------------ a shot's withheld frames
 
-WITHHELD_METHODS = ("fitted", "fitted_network", "generic", "cycles_1spp_oidn", "oracle_diffuse")
+WITHHELD_METHODS = ("fitted", "fitted_network", "generic", "eevee_gi", "cycles_1spp_oidn", "oracle_diffuse")
 WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "fitted_network": "fitted network alone, without its lightmap (with its reflection map, if any)",
                    "generic": "generic model (SSGI node)",
+                   "eevee_gi": "EEVEE's own render at the scene's settings (its GI as the artist set it)",
                    "cycles_1spp_oidn": "Cycles 1 spp + OIDN",
                    "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest (as the node corrects it)",
                    "oracle_eevee_rest": "ceiling without the reflection map: the reference's diffuse part + EEVEE's "
@@ -150,7 +151,7 @@ def withheld_verdict(w: dict, bar_db: float = SHOT_BAR_DB) -> str:
     ms = w["methods"]
     f = ms["fitted"]["psnr"]
     parts = [f"withheld frames {', '.join(map(str, w['frames']))} as the node renders them: fitted {f:.2f} dB"]
-    for m in ("generic", "cycles_1spp_oidn"):
+    for m in ("generic", "eevee_gi", "cycles_1spp_oidn"):
         if m in ms:
             parts.append(f"{WITHHELD_LABELS[m].split(' (')[0]} {ms[m]['psnr']:.2f} dB")
     ok = f >= bar_db and ("cycles_1spp_oidn" not in ms or f >= ms["cycles_1spp_oidn"]["psnr"])

@@ -49,7 +49,9 @@ def _act():
 # the input groups each head reads itself (fit never drops them)
 HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
               # one-render models (issue 15): the shading starts from EEVEE's own diffuse light, not the hard direct
-              "residual_gi": ("albedo", "eevee_diffuse")}
+              "residual_gi": ("albedo", "eevee_diffuse"),
+              # GI-off one-render models: from EEVEE's diffuse light without its GI (lamps, emitter proxies, world)
+              "residual_local": ("albedo", "eevee_local")}
 
 class Head(nn.Module):
     def __init__(self, kind: str, spec: tuple[str, ...]):

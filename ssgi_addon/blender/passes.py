@@ -37,7 +37,11 @@ from ...model.errors import UserError
 PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
 # groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
 # input of one-render models; issue 15, docs/one_render.md)
-REST_LIGHT_GROUPS = ("eevee_diffuse",)
+REST_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")
+# how the one render of each kind of one-render model is made: (ray tracing + fast GI, emitter proxies). eevee_diffuse:
+# both on, no proxies (the models trained on it, docs/one_render.md); eevee_local: both off, proxies on (a frame
+# without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter without its GI)
+ONE_RENDER_MODES: dict[str, tuple[bool, bool]] = {"eevee_diffuse": (True, False), "eevee_local": (False, True)}
 # groups only the artist-settings render gives, whatever the samples: its Glossy Color pass (gloss: a shot's
 # reflection map, model/infer/reflmap.py, corrects EEVEE's reflections where it is)
 REST_ONLY_GROUPS = ("gloss",)
@@ -402,7 +406,7 @@ REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_
 REST_EMITTER_PROXIES = True
 
 
-def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False, proxies: bool = False):
+def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -415,9 +419,10 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False, 
     scene's own threshold (Blender's default 0.01) the artist test set's studio rendered 16 % darker (Combined
     mean 0.312 against 0.374; 95 % of the pixels differ by more than 0.01) and its gold sphere reflected a dim
     floor (docs/artists.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
-    pass, EEVEE's own diffuse light). With ``gi`` ray tracing and fast GI are switched on whatever the scene says
-    (their other settings stay the artist's): the one-render models were trained on EEVEE's diffuse light with
-    both on. With ``proxies`` an area light stands in for each planar emitter during the render
+    pass, EEVEE's own diffuse light) or ``eevee_local`` (the same pass, of a GI-off render). ``gi`` True / False
+    switches ray tracing and fast GI on / off whatever the scene says (their other settings stay the artist's):
+    the one-render models were trained on EEVEE's diffuse light with both on (``eevee_diffuse``) or both off
+    (``eevee_local``); None keeps the scene's. With ``proxies`` an area light stands in for each planar emitter during the render
     (``direct_light.emitter_proxies``; the render path's and the bakes' rest, ``REST_EMITTER_PROXIES``), so that
     EEVEE's reflections and transmission see the light the emitters cast; without, the render is EEVEE's own.
     The settings it changes are put back."""
@@ -432,8 +437,8 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False, 
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
-        if gi:
-            scene.eevee.use_raytracing = scene.eevee.use_fast_gi = True
+        if gi is not None:
+            scene.eevee.use_raytracing = scene.eevee.use_fast_gi = bool(gi)
         no_light_culled(scene)
         vl = scene.view_layers[0]
         for f in REST_PASSES + tuple(ch.GROUPS[g].blender_pass for g in groups):
@@ -447,7 +452,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool = False, 
     rest = combined[..., :3] - _rgb(passes, "Diffuse Color") * light
     if not groups:
         return rest.astype(np.float32), combined
-    return rest.astype(np.float32), combined, {g: light if g == "eevee_diffuse" else _group(passes, g) for g in groups}
+    return rest.astype(np.float32), combined, {g: light if g in REST_LIGHT_GROUPS else _group(passes, g) for g in groups}
 
 
 # The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
@@ -480,9 +485,10 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
     from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
     for it, the SHARED_GROUPS (and the motion vectors) come from that render whatever the samples, so that a
-    one-render model's every input is of that one render (docs/one_render.md). ``proxies``: the rest render
-    stands area lights in for planar emitters (``render_rest``; not for ``eevee_diffuse``, an input the one-render
-    models were trained on without). The scene's render settings are put back."""
+    one-render model's every input is of that one render (docs/one_render.md). ``eevee_local`` (a GI-off one-render
+    model) likewise, from that render made with ray tracing and fast GI off and the emitter proxies on
+    (``ONE_RENDER_MODES``). ``proxies``: the rest render stands area lights in for planar emitters
+    (``render_rest``; not for ``eevee_diffuse``, an input the one-render models were trained on without). The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -493,7 +499,12 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_timings.clear()
     last_sources.clear()
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
-    gi = any(g in REST_LIGHT_GROUPS for g in groups)
+    ones = [g for g in groups if g in REST_LIGHT_GROUPS]
+    if len(ones) > 1:
+        raise ValueError(f"groups {ones} come from different one-render renders (ray tracing and fast GI on / off): "
+                         "ask for one")
+    gi = bool(ones)  # a one-render model: every group from its one render
+    gi_flag, proxied = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies)
     with_rest = "rest" in groups or gi or any(g in REST_ONLY_GROUPS for g in groups)
     # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
     # on the lighting)
@@ -525,7 +536,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if with_rest:
-        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxies and not gi)
+        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi_flag, proxies=proxied)
         out["rest"], out["beauty"] = made[:2]
         if rest_groups:
             out.update(made[2])

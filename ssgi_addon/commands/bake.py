@@ -24,7 +24,8 @@ def run_bake(args) -> dict:
     cfg = BakeConfig(out=args.out, count=args.count, seed=args.seed, size=tuple(args.size),
                      ref_samples=args.ref_samples, ref_target_db=args.ref_target_db, denoise=args.denoise,
                      eevee_samples=args.eevee_samples, shard=args.shard, scenes=args.scenes, frames=args.frames,
-                     mode=args.mode, gi_samples=args.gi_samples, rest_samples=args.rest_samples)
+                     mode=args.mode, gi_samples=args.gi_samples, rest_samples=args.rest_samples,
+                     one_render=args.one_render)
     bar = None
 
     def on_start(ev):  # the bar shows from the start, not after the first (minutes-long) sample
@@ -114,6 +115,10 @@ def register_cli(sub) -> None:
                         "the room with ray tracing and fast GI on at N samples (eevee_diffuse, rest, albedo, normal, "
                         "depth, emission), and no world, soft direct or emitter renders (docs/one_render.md; "
                         "default 0: the full bake)")
+    p.add_argument("--one-render", choices=("gi", "local"), default="gi",
+                   help="with --gi-samples, the kind of one render: gi (ray tracing and fast GI on, eevee_diffuse) or "
+                        "local (both off, an area light standing in for each planar emitter; eevee_local and the "
+                        "Glossy Color gloss): a GI-off one-render model's inputs (default %(default)s)")
     p.add_argument("--rest-samples", type=cliargs.nonnegative_int, default=0, metavar="N",
                    help="the samples also hold EEVEE's rest (all it renders besides diffuse light) of the scene at its "
                         "own settings at N samples, as the node renders it: what a fit that learns the rest "

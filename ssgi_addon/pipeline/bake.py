@@ -38,11 +38,22 @@ BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_G
 # those three renders are what a one-render model does without.
 ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission", "eevee", "surround",
                           "eevee_diffuse", "rest") + CYCLES_SAMPLE_GROUPS
+# the kinds of one-render bake (--one-render): "gi" as above; "local", the one render made with ray tracing and fast
+# GI off and the emitter proxies on (passes.ONE_RENDER_MODES), its Diffuse Direct stored as eevee_local, and its Glossy
+# Color (gloss, for a shot's reflection map)
+ONE_RENDER_KINDS = {"gi": "eevee_diffuse", "local": "eevee_local"}
+
+
+def one_render_bake_groups(kind: str = "gi") -> tuple[str, ...]:
+    """What the samples of a one-render bake of ``kind`` (ONE_RENDER_KINDS) hold."""
+    light = ONE_RENDER_KINDS[kind]
+    groups = tuple(light if g == "eevee_diffuse" else g for g in ONE_RENDER_BAKE_GROUPS)
+    return groups + (("gloss",) if kind == "local" else ())
 ROOM_MODES = room.MODES
 
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
-              ref_target_db=None, mode="diffuse", gi_samples=0, rest_samples=0):
+              ref_target_db=None, mode="diffuse", gi_samples=0, rest_samples=0, one_render="gi"):
     s = _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, scenes, frames, ref_target_db,
                        mode)
     if rest_samples and not gi_samples:
@@ -50,8 +61,12 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
                               "render": "the scene's own EEVEE settings (passes.render_rest), as the node renders it",
                               "emitter_proxies": passes.REST_EMITTER_PROXIES}
     if gi_samples:
-        s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": True, "fast_gi": True,
-                                    "groups_from_it": ["eevee_diffuse", "rest", *passes.SHARED_GROUPS],
+        light = ONE_RENDER_KINDS[one_render]
+        gi, proxies = passes.ONE_RENDER_MODES[light]
+        s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": gi, "fast_gi": gi, "kind": one_render,
+                                    "emitter_proxies": proxies,
+                                    "groups_from_it": [light, "rest", *passes.SHARED_GROUPS,
+                                                       *(("gloss",) if one_render == "local" else ())],
                                     "rest": passes.REST_MODE}
     return s
 
@@ -153,7 +168,7 @@ def _complete(out, name, manifest) -> bool:
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
               shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
-              mode: str = "diffuse", gi_samples: int = 0, rest_samples: int = 0):
+              mode: str = "diffuse", gi_samples: int = 0, rest_samples: int = 0, one_render: str = "gi"):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -174,16 +189,17 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     if scenes:
         settings = _settings("scenes", (w, h), ref_samples, denoise, eevee_samples, scenes=scenes,
                              frames=list(frames) if frames else None, ref_target_db=target, gi_samples=gi_samples,
-                             rest_samples=rest_samples)
+                             rest_samples=rest_samples, one_render=one_render)
     else:
         settings = _settings("rooms", (w, h), ref_samples, denoise, eevee_samples, first_seed=seed,
-                             ref_target_db=target, mode=mode, gi_samples=gi_samples, rest_samples=rest_samples)
+                             ref_target_db=target, mode=mode, gi_samples=gi_samples, rest_samples=rest_samples,
+                             one_render=one_render)
     # list the jobs first: an unreadable .blend or a scene without a camera stops before the folder is touched
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
     manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
-                                 groups=ONE_RENDER_BAKE_GROUPS if gi_samples else
+                                 groups=one_render_bake_groups(one_render) if gi_samples else
                                  BAKE_GROUPS + (("rest",) + passes.REST_ONLY_GROUPS if rest_samples else ()))
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
@@ -274,12 +290,18 @@ class BakeConfig:
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
     gi_samples: int = 0  # > 0: a one-render bake, its artist-settings render at this many samples (docs/one_render.md)
+    one_render: str = "gi"  # ... of this kind (ONE_RENDER_KINDS): "gi" ray tracing + fast GI on, "local" both off
     rest_samples: int = 0  # > 0: the samples also hold EEVEE's rest at the scene's settings at this many samples
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
         _check_args(int(self.size[0]), int(self.size[1]), self.count, self.ref_samples, self.shard, self.scenes,
                     self.mode)
+        if self.one_render not in ONE_RENDER_KINDS:
+            raise UserError(f"--one-render {self.one_render}: not a kind of one-render bake; known: "
+                            f"{', '.join(ONE_RENDER_KINDS)}")
+        if self.one_render != "gi" and not self.gi_samples:
+            raise UserError(f"--one-render {self.one_render} needs --gi-samples N (the samples of the one render)")
         resolve_ref_target(self.ref_target_db, self.denoise)
 
 
@@ -291,7 +313,7 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
                     frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode,
-                    gi_samples=cfg.gi_samples, rest_samples=cfg.rest_samples)
+                    gi_samples=cfg.gi_samples, rest_samples=cfg.rest_samples, one_render=cfg.one_render)
     start = next(gen)
     if on_start:
         on_start(start)

@@ -76,6 +76,23 @@ def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
     return ladder, target
 
 
+# what a GI-off one-render fit's scratch networks read: every group of the one render (passes.ONE_RENDER_MODES) and
+# its emission statistics, the surround ray casts (no render), never the hard direct light or the other renders
+ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_local,glow,surround"
+ONE_RENDER_HEAD = "residual_local"
+
+
+def one_render_ladder(ladder, target, shot: bool) -> tuple[list, float | None, str]:
+    """(ladder, target PSNR, inputs) of a GI-off one-render fit: ``ladder`` (None: model.learn.fit.LADDER) with the
+    residual_local head, which starts from the one render's own diffuse light, on ONE_RENDER_INPUTS; a shot aims at
+    the shot bar (fit_report.SHOT_BAR_DB) unless ``target`` says otherwise."""
+    from ...model.evaluate.fit_report import SHOT_BAR_DB
+    from ...model.learn.fit import LADDER
+    rows = [list(r) for r in (LADDER if not ladder else ladder)]
+    rows = [[n, v, dict(o or {}, head=ONE_RENDER_HEAD)] for n, v, o in rows]
+    return rows, (SHOT_BAR_DB if target is None and shot else target), ONE_RENDER_INPUTS
+
+
 def starts_to_probe(cfg, init, shot: bool) -> list[str]:
     """The checkpoints a fit probes beside ``init`` (``FitConfig.also_init``): ``cfg.also_init`` when given, else for
     a shot fit that was given no ``--init`` the shipped fit start (FIT_START_MODEL, when present); never ``init``
@@ -123,10 +140,20 @@ class FitSceneConfig:
     # ... and a reflection map (model/infer/reflmap.py) when its views show glossy surfaces: the views then hold
     # EEVEE's rest and Glossy Color at the node's settings (off: --no-reflmap)
     reflmap: bool = True
+    # a GI-off one-render model (issue 15, docs/one_render.md): the views hold only what one EEVEE render with ray
+    # tracing and fast GI off gives (eevee_local, albedo, normal, depth, emission, rest, gloss; passes.ONE_RENDER_MODES),
+    # scratch networks with head residual_local learn from it, and each frame of the node is that one render
+    one_render: bool = False
     command: str | None = None  # recorded in the checkpoint
 
     def check(self) -> None:
         """UserError naming the setting, before any work (nothing is written)."""
+        if self.one_render and self.learn_rest:
+            raise UserError("--one-render and --learn-rest: a one-render model learns Cycles' diffuse part beside the "
+                            "one render's rest; give one of them")
+        if self.one_render and self.data:
+            raise UserError("--one-render bakes its own views (--blend FILE): views baked before (--data) hold other "
+                            "passes")
         out = Path(self.out).expanduser()
         if out.suffix != ".pt":
             raise UserError(f"--out {self.out}: the model file must end in .pt")
@@ -199,7 +226,10 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         plan = fviews.make_views(scene, cfg.views, cfg.seed, frames=tuple(cfg.frames) if cfg.frames else None)
         size = tuple(cfg.size) if cfg.size else fviews.default_size(scene)
         plan.update(size=list(size), blend=str(blend))
-        if cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
+        if cfg.one_render:  # every group from the one GI-off render, at the scene's own samples
+            plan["one_render"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
+            plan["glossy"] = bool(has_glossy(scene))
+        elif cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
             plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
         elif cfg.reflmap and plan.get("test_frames") and has_glossy(scene):  # (and its Glossy Color: reflmap)
             plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
@@ -212,7 +242,7 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         data_dir = work / f"views-{tag}"
         report(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
         bake_views(wblend, data_dir, plan, size, ref_samples=cfg.ref_samples, log=log,
-                   rest_samples=plan.get("rest_samples", 0))
+                   rest_samples=plan.get("rest_samples", 0), one_render=plan.get("one_render", 0))
         bake_s = time.perf_counter() - t0
         log(f"fit: views baked in {bake_s / 60:.2f} min")
     train, val, test = fviews.split_views(data_dir, plan)
@@ -221,14 +251,15 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
 
     from ...model.learn import fit as mfit
     from ..blender.node import DEFAULT_MODEL
-    init = cfg.init or (str(DEFAULT_MODEL) if DEFAULT_MODEL.is_file() else None)
+    # (a one-render fit starts from scratch: the shipped models read passes its views do not hold)
+    init = cfg.init or (str(DEFAULT_MODEL) if DEFAULT_MODEL.is_file() and not cfg.one_render else None)
     withheld = plan.get("test_frames") if plan else None
     left = 60.0 * cfg.minutes - (time.perf_counter() - t0)
     floor = max(0.1 * 60.0 * cfg.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
     fit_minutes = max(left, floor) / 60.0
     lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
     # (not with --learn-rest: that model learns Cycles minus EEVEE's own rest, which a corrected rest would count twice)
-    glossy = (bool(cameras) and cfg.reflmap and not cfg.learn_rest
+    glossy = (bool(cameras) and cfg.reflmap and not cfg.learn_rest and plan.get("glossy", True)
               and "gloss" in dataset_folder.stored_groups(dataset_folder.open_folder(data_dir)))
     reflmap_s = min(REFLMAP_MAX_S, REFLMAP_SHARE * 60.0 * fit_minutes) if glossy else 0.0
     fit_minutes -= (lightmap_s + reflmap_s) / 60.0
@@ -236,11 +267,14 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         log(f"fit: the bake took {bake_s / 60:.2f} of {cfg.minutes:g} min; fitting gets {fit_minutes:.2f} min "
             "(the whole fit will run over the budget)")
     ladder, target = shot_defaults(cfg, init, bool(withheld))
-    also = starts_to_probe(cfg, init, bool(withheld))
+    also = starts_to_probe(cfg, init, bool(withheld)) if not cfg.one_render else list(cfg.also_init or ())
+    inputs = None
+    if cfg.one_render:
+        ladder, target, inputs = one_render_ladder(ladder, target, bool(withheld))
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
                           minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,
                           seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command,
-                          target=ch.REST_TARGET if cfg.learn_rest else None, also_init=also)
+                          target=ch.REST_TARGET if cfg.learn_rest else None, also_init=also, inputs=inputs)
     if ladder is not None:  # [] is a choice: only the starting checkpoint, fine-tuned
         mcfg.ladder = [list(r) for r in ladder]
     if cfg.crop:
@@ -383,12 +417,12 @@ WITHHELD_HOW = ("The fitted model through RenderSession (the SSGI node's render 
 def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, out_dir=None, log=None) -> list[dict]:
     """Render a shot's withheld frames (``plan["test_frames"]``, camera ``plan["test_camera"]``) at ``size``
     (w, h): the SSGI node's image with ``model`` (RenderSession) and with ``generic`` (same passes), Cycles
-    1 spp + OIDN, the reference (Cycles ``ref_samples`` spp + OIDN, another seed) and, for a diffuse-part
+    1 spp + OIDN, EEVEE's own render at the scene's settings (``eevee_gi``), the reference (Cycles ``ref_samples`` spp + OIDN, another seed) and, for a diffuse-part
     model, that reference's diffuse part composed with EEVEE's rest as the node composes (``oracle_diffuse``:
     what a perfect diffuse prediction would score; the rest's error no fit can remove) and, when the model has a
     lightmap, the fitted network alone without it (``fitted_network``). Returns [{frame, ref, mask, images,
     seconds}] for ``fit_report.score_withheld``; with ``out_dir``, a PNG sheet a frame (reference | fitted |
-    [fitted network alone |] generic | Cycles 1 spp + OIDN)."""
+    [fitted network alone |] [generic |] EEVEE | Cycles 1 spp + OIDN)."""
     import numpy as np
 
     from ...model import channels as ch, images
@@ -432,6 +466,10 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
             imgs["generic"] = compose(p, g | {"rest": g.get("rest_eevee", g.get("rest"))}, scene.camera.data.clip_end,
                                       gen.target)
             secs["generic"] = info["t_passes"] + time.perf_counter() - t
+        with preserved(scene):  # EEVEE's own render of the frame, as the artist renders it without SSGI
+            t = time.perf_counter()
+            imgs["eevee_gi"] = passes.render_rest(scene)[1][..., :3]
+            secs["eevee_gi"] = time.perf_counter() - t
         with preserved(scene):
             t = time.perf_counter()
             imgs["cycles_1spp_oidn"] = passes.render_cycles(scene, 1, seed=f, denoise=True)["ref"]
@@ -449,7 +487,8 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
         log(f"fit: withheld frame {f}: " + ", ".join(f"{k} {v:.1f} s" for k, v in secs.items()))
         if out_dir is not None:
             Path(out_dir).mkdir(parents=True, exist_ok=True)
-            row = [ref] + [imgs[k] for k in ("fitted", "fitted_network", "generic", "cycles_1spp_oidn") if k in imgs]
+            row = [ref] + [imgs[k] for k in ("fitted", "fitted_network", "generic", "eevee_gi", "cycles_1spp_oidn")
+                           if k in imgs]
             sheet = np.concatenate([np.pad(np.asarray(x, np.float32), ((0, 0), (0, 2), (0, 0))) for x in row], axis=1)
             images.write_png(Path(out_dir) / f"frame_{f:04d}.png", images.srgb8(sheet))
     return out
@@ -458,16 +497,19 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
 # ------------------------------------------------------------------------------------------------- bake
 
 def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None,
-               rest_samples: int = 0) -> None:
+               rest_samples: int = 0, one_render: int = 0) -> None:
     """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
     a child process (the baker resumes a half-done folder). The baker stays in this process's group and dies
     with it (runtime/launcher.py), so cancelling the fit ends the baker too. ``rest_samples``: the views also
-    hold EEVEE's rest at that many samples (a fit that learns the rest)."""
+    hold EEVEE's rest at that many samples (a fit that learns the rest). ``one_render``: a GI-off one-render bake
+    (``cli.py bake --gi-samples N --one-render local``) at that many samples."""
     from ..runtime import launcher
     cmd = launcher.cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
                                "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
     cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
-    if rest_samples:
+    if one_render:
+        cmd += ["--gi-samples", str(int(one_render)), "--one-render", "local"]
+    elif rest_samples:
         cmd += ["--rest-samples", str(int(rest_samples))]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")
     launcher.run(cmd, env=launcher.cli_env(), new_group=False).check("baking the views")

@@ -14,7 +14,7 @@ from ssgi.model.learn import checkpoint
 from ssgi.model.errors import UserError
 from ssgi.ssgi_addon.blender import views as fviews
 
-from ..conftest import ROOT, run_cli, run_py
+from ..conftest import run_cli, run_py, save_shot
 from ..unit.test_fit import ABLATE_ALL, generic  # noqa: F401  (generic: a fixture)
 
 SHOT = (1, 20)
@@ -53,13 +53,7 @@ def test_bad_shots_are_refused_by_the_plan():
 def shot_fit(tmp_path_factory, generic):
     d = tmp_path_factory.mktemp("shot_fit")
     blend = d / "ripple.blend"
-    run_py(f'''
-sys.path.insert(0, {str(ROOT / "benchmarks")!r})
-import shot_scenes
-sc = shot_scenes.build("ripple", (64, 36), {SHOT[1]})
-sc.eevee.taa_render_samples = 1
-shot_scenes.save(sc, {str(blend)!r})
-''', timeout=120)
+    save_shot("ripple", blend, (64, 36), SHOT[1], timeout=120)
     model = d / "shot.pt"
     p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
                 "--minutes", "0.5", "--size", "64x36", "--ref-samples", "2", "--init", str(generic), "--drop-tol",

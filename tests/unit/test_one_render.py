@@ -78,3 +78,34 @@ def test_eevee_diffuse_is_an_optional_stored_group_so_older_datasets_stay_whole(
     from ssgi.model.dataset import folder
     old = {"channel_spec": [{"name": g, "channels": []} for g in ("albedo", "normal", "world")]}
     assert "eevee_diffuse" not in folder.stored_groups(old)
+
+
+# ---- GI-off one-render models (session 20): eevee_local, head residual_local, the fit's ladder and the bake's groups
+
+LOCAL_SPEC = ("albedo", "normal", "depth", "emission", "eevee_local", "glow", "surround")
+
+
+def test_the_residual_local_head_starts_from_the_gi_off_renders_diffuse_light_and_needs_it():
+    import torch
+
+    from ssgi.model.learn import ablation, network
+
+    g = _groups(16, 16)
+    g["eevee_local"] = (0.5 * g["eevee_diffuse"]).astype(np.float32)
+    net = network.build(network.arch_for("unet", ",".join(LOCAL_SPEC), target="ref_diffuse", head="residual_local"))
+    last = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+    with torch.no_grad():  # the network's own output 0: the head alone
+        last.weight.zero_()
+        last.bias.zero_()
+    x, _ = normalize.to_inputs(g, LOCAL_SPEC)
+    with torch.no_grad():
+        y = net(torch.from_numpy(x).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy()
+    # log1p(albedo x the GI-off render's diffuse light), not EEVEE's GI light nor the hard direct light
+    assert np.allclose(np.expm1(y), g["albedo"] * g["eevee_local"], rtol=1e-4, atol=1e-5)
+    with pytest.raises(UserError, match="eevee_local"):
+        network.build(network.arch_for("unet", "albedo,normal,depth,eevee_diffuse", target="ref_diffuse",
+                                       head="residual_local"))
+    # the fit never drops what the head reads
+    assert "eevee_local" not in ablation.droppable(LOCAL_SPEC, "residual_local")
+    assert "eevee_local" in ch.SAMPLE_GROUPS and "eevee_local" in ch.OPTIONAL_GROUPS and "eevee_local" in ch.INPUT_GROUPS
+    assert ch.GROUPS["eevee_local"].render_pass == "Diffuse Direct"

@@ -53,7 +53,7 @@ def env(d):
     return (0.4 + 0.3 * d[..., :1]) * np.array([1.0, 0.8, 0.6], np.float32)
 
 
-def test_the_map_corrects_only_glossy_pixels_away_from_edges():
+def test_the_map_learns_from_glossy_pixels_away_from_edges_and_corrects_every_glossy_pixel():
     g = _frame()
     w = [(np.zeros((4, rm.n_features(1, 1)), np.float32), np.zeros(4, np.float32)),
          (np.zeros((3, 4), np.float32), np.array([0.5, 0.5, 0.5], np.float32))]  # a constant field of 0.5
@@ -62,9 +62,13 @@ def test_the_map_corrects_only_glossy_pixels_away_from_edges():
     assert not mask[:, :8].any()  # matte: nothing to correct
     assert not mask[:, 8].any() and not mask[:, 7].any()  # the gloss edge between the halves
     assert mask[3:, 10:].all()
+    # the node corrects the gloss edge too (its gloss is the mirror's share of the pixel), never the matte half
+    every = rm.glossy_mask(g, edges=True)
+    assert every[:, 8].all() and not every[:, :8].any() and (every & ~mask).any()
+    assert np.array_equal(every, (g["gloss"] > rm.GLOSS_MIN).any(-1) & (g["depth"][..., 0] < 1e9))
     rest = np.full((12, 16, 3), 0.1, np.float32)
     out = m.apply(rest, g, np.eye(4), perspective(w=16, h=12))
-    assert np.allclose(out[~mask], 0.1) and np.allclose(out[mask], 0.1 + 0.9 * 0.5)
+    assert np.allclose(out[~every], 0.1) and np.allclose(out[every], 0.1 + 0.9 * 0.5)
     m.lam = 0.0
     assert m.apply(rest, g, np.eye(4), perspective(w=16, h=12)) is rest
 

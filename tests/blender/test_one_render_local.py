@@ -1,0 +1,161 @@
+"""Issue 15, item 4: GI-off one-render models (docs/one_render.md, session 20). A frame of such a model is ONE EEVEE
+render with ray tracing and fast GI switched off and an area light standing in for each planar emitter
+(``passes.ONE_RENDER_MODES["eevee_local"]``): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
+emission, rest and gloss come from it too. ``cli.py fit --one-render`` bakes views of that render and fits scratch
+networks (head ``residual_local``) on them. Real EEVEE and Cycles at tiny sizes: the pass call makes one render with
+GI off and proxies on and puts the artist's settings back; a tiny one-render shot fit writes a model that reads
+only that render, and the node renders its frames with that one render."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ..conftest import ROOT, run_cli, run_py, save_shot
+
+PASSES = r'''
+import json, sys
+import numpy as np
+import bpy
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import artist_scenes
+from ssgi.ssgi_addon.blender import passes
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+sc = bpy.context.scene
+artist_scenes.build_cornell_emissive(sc)   # lit only by an emissive ceiling panel (a planar emitter)
+artist_scenes.render_settings(sc, (64, 36))
+sc.eevee.taa_render_samples = 2
+sc.eevee.use_raytracing = sc.eevee.use_fast_gi = True   # the artist's: the GI-off call switches both off
+n_lights = len(bpy.data.lights)
+groups = ("albedo", "normal", "depth", "emission", "eevee_local", "surround", "rest", "gloss")
+one = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2)
+res = {"renders": sorted(passes.last_timings), "sources": dict(passes.last_sources),
+       "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi], "lights_after": len(bpy.data.lights) - n_lights}
+rest, _c, own = passes.render_rest(sc, 2, groups=("eevee_local", "gloss"), gi=False, proxies=True)
+gi_on = passes.render_rest(sc, 2, groups=("eevee_local",), gi=True, proxies=True)[2]["eevee_local"]
+no_proxy = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False)[2]["eevee_local"]
+res["vs_own_render"] = {"eevee_local": float(np.abs(one["eevee_local"] - own["eevee_local"]).max()),
+                        "gloss": float(np.abs(one["gloss"] - own["gloss"]).max()),
+                        "rest": float(np.abs(one["rest"] - rest).max())}
+geo = one["depth"][..., 0] < 0.999 * sc.camera.data.clip_end
+res["mean"] = {"local": float(one["eevee_local"][geo].mean()), "no_proxy": float(no_proxy[geo].mean()),
+               "gi_on_vs_off": float(np.abs(gi_on - own["eevee_local"])[geo].mean())}
+try:
+    passes.render_gbuffer(sc, ("albedo", "eevee_local", "eevee_diffuse"), samples=1)
+    res["both"] = "no error"
+except ValueError as e:
+    res["both"] = str(e)
+print("RESULT", json.dumps(res))
+'''
+
+
+def test_a_gi_off_one_render_call_makes_one_render_with_gi_off_and_proxies_on_and_puts_them_back():
+    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + PASSES, timeout=900)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert res["renders"] == ["rest", "surround"], res["renders"]  # one EEVEE render (surround: ray casts)
+    assert all(v == "rest" for k, v in res["sources"].items() if k != "surround"), res["sources"]
+    assert res["rt_after"] == [True, True] and res["lights_after"] == 0, res  # the artist's settings are back
+    # every group is that of EEVEE's own GI-off render with the emitter proxies
+    assert max(res["vs_own_render"].values()) <= 1e-6, res["vs_own_render"]
+    m = res["mean"]
+    # the panel lights the box only through its proxy (EEVEE lights nothing from an emissive mesh without GI) ...
+    assert m["local"] > 0.05 and m["no_proxy"] < 0.2 * m["local"], m
+    # ... and ray tracing + fast GI were off (with them on, the same render's diffuse light differs)
+    assert m["gi_on_vs_off"] > 1e-3, m
+    assert "different one-render renders" in res["both"], res["both"]
+
+
+def test_a_one_render_fit_trains_scratch_residual_local_networks_on_the_one_renders_groups_only():
+    from ssgi.model import channels as ch
+    from ssgi.model.errors import UserError
+    from ssgi.model.evaluate.fit_report import SHOT_BAR_DB
+    from ssgi.model.learn.fit import LADDER
+    from ssgi.ssgi_addon.pipeline import fit as pfit
+    from ssgi.ssgi_addon.pipeline.bake import one_render_bake_groups
+
+    ladder, target, inputs = pfit.one_render_ladder(None, None, shot=True)
+    assert [r[0] for r in ladder] == [r[0] for r in LADDER] and all(r[2]["head"] == "residual_local" for r in ladder)
+    assert all(r[2]["widths"] == l[2]["widths"] for r, l in zip(ladder, LADDER))  # the ladder's sizes are kept
+    assert target == SHOT_BAR_DB and pfit.one_render_ladder(None, 31.0, shot=True)[1] == 31.0
+    spec = ch.parse_spec(inputs)
+    baked = one_render_bake_groups("local")
+    # every input comes from the views of a local one-render bake, and none from the renders it does without
+    assert set(ch.required_groups(spec)) <= set(baked), (spec, baked)
+    assert not set(spec) & {"direct", "world", "direct_soft", "emit_direct", "eevee_diffuse", "lit", "scene"}
+    assert "gloss" in baked and "eevee_diffuse" not in baked and "eevee_diffuse" in one_render_bake_groups("gi")
+    # the lightmap may learn beside the one render's light, the only known light such a frame renders
+    from ssgi.model.infer import lightmap
+    assert lightmap.known_for(ch.required_groups(spec)) == ("eevee_local",)
+    with pytest.raises(UserError, match="--learn-rest"):
+        pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True, learn_rest=True).check()
+    with pytest.raises(UserError, match="--data"):
+        pfit.FitSceneConfig(out="x.pt", data="views", one_render=True).check()
+
+
+def test_a_local_one_render_bake_needs_its_samples():
+    from ssgi.model.errors import UserError
+    from ssgi.ssgi_addon.pipeline.bake import BakeConfig
+
+    with pytest.raises(UserError, match="--gi-samples"):
+        BakeConfig(out="d", one_render="local").check()
+    with pytest.raises(UserError, match="--one-render bogus"):
+        BakeConfig(out="d", gi_samples=4, one_render="bogus").check()
+    BakeConfig(out="d", gi_samples=4, one_render="local").check()
+
+
+NODE = r'''
+import json, sys
+import numpy as np
+import bpy
+from ssgi.ssgi_addon.blender.compositor import setup_scene
+from ssgi.ssgi_addon.pipeline.render import RenderSession
+
+model, blend = sys.argv[1], sys.argv[2]
+bpy.ops.wm.open_mainfile(filepath=blend)
+sc = bpy.context.scene
+sc.eevee.use_raytracing = sc.eevee.use_fast_gi = True
+setup_scene(sc, model)
+s = RenderSession(sc, frames=[5], model=model, write=False, keep_groups=True)
+s.run()
+r = s.results[0]
+print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": sorted(r["groups"]),
+                            "finite": bool(np.isfinite(r["prediction"]).all()), "mean": float(r["prediction"].mean()),
+                            "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi]}))
+'''
+
+SHOT = (1, 20)
+
+
+@pytest.mark.timeout(1800)
+def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders_it_so(tmp_path):
+    blend = tmp_path / "cornell.blend"
+    save_shot("cornell_emissive", blend, (96, 54), SHOT[1])
+    model = tmp_path / "shot.pt"
+    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
+                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render", "--min-run-seconds", "1",
+                "--threads", "1", "--crop", "32", "--json", timeout=1500)
+    summary = json.loads(p.stdout)
+    import torch
+    ck = torch.load(model, map_location="cpu", weights_only=False)
+    arch = ck["arch"]
+    # a scratch network on the one render's groups (no generic start: its passes are not in the views)
+    assert arch["head"] == "residual_local", arch
+    assert set(arch["inputs"]) <= {"albedo", "normal", "depth", "emission", "eevee_local", "glow", "surround"}, arch
+    assert {"albedo", "eevee_local"} <= set(arch["inputs"]), arch
+    views = next((model.parent / "shot.fit").glob("views-*/manifest.json"))
+    m = json.loads(views.read_text())
+    one = m["settings"]["eevee"]["one_render"]
+    assert one["kind"] == "local" and one["raytracing"] is False and one["emitter_proxies"] is True, one
+    held = {g["name"] for g in m["channel_spec"] if "channels" in g}
+    assert {"eevee_local", "rest", "gloss"} <= held and not held & {"world", "direct_soft", "emit_direct"}, held
+    # the withheld frames are scored against EEVEE's own render too, and the fitted image beats it there
+    w = summary["withheld"]["methods"]
+    assert {"fitted", "eevee_gi", "cycles_1spp_oidn"} <= set(w), w.keys()
+    assert w["fitted"]["psnr"] > w["eevee_gi"]["psnr"], (w["fitted"]["psnr"], w["eevee_gi"]["psnr"])
+    # the node: one EEVEE render a frame, the artist's ray tracing and fast GI back afterwards
+    p = run_py(NODE, str(model), str(blend), timeout=600)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert set(res["renders"]) <= {"rest", "surround"} and "rest" in res["renders"], res["renders"]
+    assert not set(res["groups"]) & {"direct", "world", "direct_soft", "emit_direct", "eevee"}, res["groups"]
+    assert res["finite"] and res["mean"] > 0.01 and res["rt_after"] == [True, True], res
