@@ -503,13 +503,13 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     if len(ones) > 1:
         raise ValueError(f"groups {ones} come from different one-render renders (ray tracing and fast GI on / off): "
                          "ask for one")
-    gi = bool(ones)  # a one-render model: every group from its one render
-    gi_flag, proxied = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies)
-    with_rest = "rest" in groups or gi or any(g in REST_ONLY_GROUPS for g in groups)
+    one = bool(ones)  # a one-render model: every group from its one render
+    gi, proxied = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies)
+    with_rest = "rest" in groups or one or any(g in REST_ONLY_GROUPS for g in groups)
     # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
     # on the lighting)
-    shared = tuple(g for g in groups if g in SHARED_GROUPS + (EXTRA_GROUPS if gi else ())) \
-        if merge and with_rest and (rest_at == int(samples) or gi) else ()
+    shared = tuple(g for g in groups if g in SHARED_GROUPS + (EXTRA_GROUPS if one else ())) \
+        if merge and with_rest and (rest_at == int(samples) or one) else ()
     rest_groups = shared + tuple(g for g in groups if g in REST_LIGHT_GROUPS + REST_ONLY_GROUPS)
     raster = tuple(g for g in groups if g not in OWN_RENDER_GROUPS + ("rest",) + rest_groups)
     out = {}
@@ -536,7 +536,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if with_rest:
-        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi_flag, proxies=proxied)
+        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied)
         out["rest"], out["beauty"] = made[:2]
         if rest_groups:
             out.update(made[2])

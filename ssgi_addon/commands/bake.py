@@ -12,7 +12,7 @@ import sys
 from ...model import cliargs
 from ...model.errors import UserError
 from ..blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
-from ..pipeline.bake import BakeConfig
+from ..pipeline.bake import ONE_RENDER_KINDS, BakeConfig
 
 
 def run_bake(args) -> dict:
@@ -115,7 +115,7 @@ def register_cli(sub) -> None:
                         "the room with ray tracing and fast GI on at N samples (eevee_diffuse, rest, albedo, normal, "
                         "depth, emission), and no world, soft direct or emitter renders (docs/one_render.md; "
                         "default 0: the full bake)")
-    p.add_argument("--one-render", choices=("gi", "local"), default="gi",
+    p.add_argument("--one-render", choices=tuple(ONE_RENDER_KINDS), default="gi",
                    help="with --gi-samples, the kind of one render: gi (ray tracing and fast GI on, eevee_diffuse) or "
                         "local (both off, an area light standing in for each planar emitter; eevee_local and the "
                         "Glossy Color gloss): a GI-off one-render model's inputs (default %(default)s)")

@@ -42,13 +42,14 @@ ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission
 # GI off and the emitter proxies on (passes.ONE_RENDER_MODES), its Diffuse Direct stored as eevee_local, and its Glossy
 # Color (gloss, for a shot's reflection map)
 ONE_RENDER_KINDS = {"gi": "eevee_diffuse", "local": "eevee_local"}
+# ... and the groups of the one render each kind stores besides its light, rest and the shared groups
+ONE_RENDER_EXTRA = {"gi": (), "local": ("gloss",)}
 
 
 def one_render_bake_groups(kind: str = "gi") -> tuple[str, ...]:
     """What the samples of a one-render bake of ``kind`` (ONE_RENDER_KINDS) hold."""
     light = ONE_RENDER_KINDS[kind]
-    groups = tuple(light if g == "eevee_diffuse" else g for g in ONE_RENDER_BAKE_GROUPS)
-    return groups + (("gloss",) if kind == "local" else ())
+    return tuple(light if g == "eevee_diffuse" else g for g in ONE_RENDER_BAKE_GROUPS) + ONE_RENDER_EXTRA[kind]
 ROOM_MODES = room.MODES
 
 
@@ -66,7 +67,7 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
         s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": gi, "fast_gi": gi, "kind": one_render,
                                     "emitter_proxies": proxies,
                                     "groups_from_it": [light, "rest", *passes.SHARED_GROUPS,
-                                                       *(("gloss",) if one_render == "local" else ())],
+                                                       *ONE_RENDER_EXTRA[one_render]],
                                     "rest": passes.REST_MODE}
     return s
 
