@@ -26,7 +26,9 @@ With a one-render model (``--model``, docs/one_render.md) every variant makes th
 Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
 path before issue 15), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
 ``raster1`` (merged + the direct-only render at 1 sample, as the bake renders it), ``rest4`` (raster1 + the
-artist-settings render at 4 samples, not the scene's).
+artist-settings render at 4 samples, not the scene's), ``proxy_shadows`` / ``proxy_no_shadows`` (merged, a GI-off
+one-render model's emitter proxies with / without shadows, whatever its bake recorded). ``--samples N`` renders EEVEE
+GI and every frame at N samples instead of the scene's own.
 """
 from __future__ import annotations
 
@@ -52,6 +54,9 @@ VARIANTS: dict[str, dict] = {
     "merged": dict(merge=True),
     "raster1": dict(merge=True, raster_samples=1),
     "rest4": dict(merge=True, raster_samples=1, samples=4),  # the artist-settings render at 4 samples too
+    # a GI-off one-render model's emitter proxies with / without shadows, whatever the model's bake recorded
+    "proxy_shadows": dict(merge=True, proxy_shadows=True),
+    "proxy_no_shadows": dict(merge=True, proxy_shadows=False),
 }
 RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround")  # surround: ray casts, no render
 WARM_SIZE = (64, 36)
@@ -122,8 +127,10 @@ def open_shot(path: str, frame: int):
 
 
 def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool = False, blend=None,
-              frame: int = 1) -> dict:
+              frame: int = 1, samples: int | None = None) -> dict:
     scene = open_shot(blend, frame) if blend else A.build(name, WARM_SIZE)
+    if samples:  # EEVEE GI and the SSGI frame both at these samples (the scene's own by default)
+        scene.eevee.taa_render_samples = int(samples)
     from ssgi.ssgi_addon.blender.compositor import setup_scene
     setup_scene(scene, model)
     ssgi_frame(scene, model, VARIANTS["before"])  # warm-up, untimed
@@ -268,6 +275,8 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="write the rows here")
     ap.add_argument("--plain-gi", action="store_true", help="also time EEVEE GI with only the Combined pass "
                     "written (the artist's own render writes none of SSGI's passes)")
+    ap.add_argument("--samples", type=int, default=None, help="render EEVEE GI and the SSGI frames at this many "
+                    "samples (default: each scene's own)")
     ap.add_argument("--repeats", type=int, default=1, help="EEVEE GI and each frame this many times, alternating; "
                     "the medians are reported (default 1)")
     ap.add_argument("--facts", action="store_true", help="only measure what Blender allows (light groups, the "
@@ -287,7 +296,8 @@ def main(argv=None) -> int:
     rows = []
     todo = [(Path(b).stem, b) for b in a.blends] if a.blends else [(n, None) for n in a.names]
     for n, blend in todo:  # the JSON is rewritten after each scene: a stopped run keeps the scenes done
-        rows.append(run_scene(n, a.size, variants, a.model, refs, a.repeats, a.plain_gi, blend=blend, frame=a.frame))
+        rows.append(run_scene(n, a.size, variants, a.model, refs, a.repeats, a.plain_gi, blend=blend, frame=a.frame,
+                              samples=a.samples))
         if a.json:
             Path(a.json).write_text(json.dumps(dict(rows=rows, load_before=up), indent=1))
     up2 = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()

@@ -9,9 +9,15 @@ render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--re
 configuration in ``CONFIGS`` (Combined only; Combined + one pass; the five passes a one-render model reads; the five +
 the motion vectors of the temporal mode), all with ray tracing + fast GI on, ``NO_GI`` (Combined only with both off:
 what EEVEE's own GI costs the render) and ``GI_OFF_SETS`` with both off (the passes a GI-off one-render frame would
-read). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs with
-ray tracing and fast GI off as NAME_no_gi. Prints each render's seconds and the minimum; machine-noisy, so quote
-ratios from one run.
+read), and ``ONE_RENDER_SETS``: the six passes a GI-off one-render frame of a shot with an emitter and a glossy
+surface writes, with the emitter proxies (direct_light.emitter_proxies) casting shadows, casting none, or absent
+(session 21). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
+with ray tracing and fast GI off as NAME_no_gi. ``--frame`` / ``--samples``: the frame and the EEVEE samples of
+every render (default: frame 1, the file's samples). Prints each render's seconds, the minimum and the median;
+machine-noisy, so quote ratios from one run:
+
+    .venv/bin/python benchmarks/pass_flags.py --scenes SHOTS --names cornell_emissive room --frame 25 \
+        --configs combined combined_no_gi one_shadowed_proxies_no_gi one_proxies_no_gi one_no_gi --repeats 3
 """
 from __future__ import annotations
 
@@ -19,6 +25,8 @@ import argparse
 import json
 import sys
 import time
+
+import contextlib
 
 import _bootstrap  # noqa: F401,E402  (the checkout as package ssgi)
 import bpy  # noqa: E402
@@ -36,6 +44,12 @@ NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEV
 # diffuse light (ssgi2), colour + normal + depth (ssgi3: a model that reads the Combined pass instead of the light).
 GI_OFF_SETS: dict[str, tuple[str, ...]] = {"ssgi4": PASSES[:4], "ssgi2": PASSES[:2],
                                            "ssgi3": (PASSES[0], PASSES[2], PASSES[3])}
+# the GI-off one render of a shot fit (passes.ONE_RENDER_MODES["eevee_local"]): the five passes + Glossy Color (the
+# reflection map's), with the emitter proxies shadowed (sessions 20), unshadowed (21, the default) or absent:
+# {name: (passes, proxies: None = none, else their shadows)}
+ONE_PASSES = PASSES + ("use_pass_glossy_color",)
+ONE_RENDER_SETS: dict[str, tuple[tuple[str, ...], bool | None]] = {
+    "one_shadowed_proxies": (ONE_PASSES, True), "one_proxies": (ONE_PASSES, False), "one": (ONE_PASSES, None)}
 
 
 def optional_pass_flags(view_layer) -> list[str]:
@@ -44,15 +58,18 @@ def optional_pass_flags(view_layer) -> list[str]:
             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
 
 
-def render(scene, on, gi: bool = True) -> float:
-    """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``."""
+def render(scene, on, gi: bool = True, proxies: bool | None = None) -> float:
+    """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
+    with ``proxies`` not None the emitter proxies (their shadows on / off) in the scene during it."""
+    from ssgi.ssgi_addon.blender import direct_light
     vl = scene.view_layers[0]
     for f in optional_pass_flags(vl):
         setattr(vl, f, f in on)
     scene.eevee.use_raytracing = scene.eevee.use_fast_gi = gi
-    t = time.perf_counter()
-    bpy.ops.render.render(write_still=False)
-    return time.perf_counter() - t
+    with direct_light.emitter_proxies(scene, proxies) if proxies is not None else contextlib.nullcontext():
+        t = time.perf_counter()
+        bpy.ops.render.render(write_still=False)
+        return time.perf_counter() - t
 
 
 def main(argv=None) -> int:
@@ -61,13 +78,17 @@ def main(argv=None) -> int:
     ap.add_argument("--names", nargs="+", default=["cornell_emissive", "exterior"])
     ap.add_argument("--size", type=parse_size, default=(960, 540))
     ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--frame", type=int, default=1, help="the frame of every scene (default 1)")
+    ap.add_argument("--samples", type=int, default=None, help="EEVEE samples of every render (default: the file's)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--configs", nargs="+", default=None,
                     help=f"only these configurations, in this order each round (default all: "
-                         f"{' '.join(CONFIGS)}, each also as NAME_no_gi, and {' '.join(GI_OFF_SETS)} as NAME_no_gi)")
+                         f"{' '.join(CONFIGS)}, each also as NAME_no_gi, and {' '.join(GI_OFF_SETS)} as NAME_no_gi; "
+                         f"on request {' '.join(ONE_RENDER_SETS)}, each as NAME_no_gi)")
     a = ap.parse_args(argv)
-    every = {**{k: (on, True) for k, on in CONFIGS.items()},
-             **{f"{k}_no_gi": (on, False) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()}}
+    every = {**{k: (on, True, None) for k, on in CONFIGS.items()},
+             **{f"{k}_no_gi": (on, False, None) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()},
+             **{f"{k}_no_gi": (on, False, prox) for k, (on, prox) in ONE_RENDER_SETS.items()}}
     for k in a.configs or ():
         if k not in every:
             ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
@@ -76,14 +97,19 @@ def main(argv=None) -> int:
     for name in a.names:
         bpy.ops.wm.open_mainfile(filepath=f"{a.scenes}/{name}.blend")
         sc = bpy.context.scene
+        sc.frame_set(a.frame)
+        if a.samples:
+            sc.eevee.taa_render_samples = a.samples
         sc.render.engine = "BLENDER_EEVEE"
         sc.render.resolution_percentage = 100
         sc.render.resolution_x, sc.render.resolution_y = 64, 36
-        render(sc, PASSES + (VECTOR,))
+        render(sc, ONE_PASSES + (VECTOR,))
+        for prox in sorted({p for _o, _g, p in chosen.values() if p is not None}):  # (and with the proxies)
+            render(sc, ONE_PASSES, gi=False, proxies=prox)
         sc.render.resolution_x, sc.render.resolution_y = a.size
         for _ in range(a.repeats):
-            for k, (on, gi) in chosen.items():
-                res.setdefault(name, {}).setdefault(k, []).append(render(sc, on, gi=gi))
+            for k, (on, gi, prox) in chosen.items():
+                res.setdefault(name, {}).setdefault(k, []).append(render(sc, on, gi=gi, proxies=prox))
         for k, v in res[name].items():
             print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}"
                   f"  median {sorted(v)[len(v) // 2]:6.2f}", flush=True)

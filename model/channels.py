@@ -106,7 +106,8 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           render_pass="Diffuse Direct", drop_rank=None),
     Group("eevee_local", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE's own diffuse light with ray tracing and fast GI OFF, at the artist's samples, with an area light "
-          "standing in for each planar emitter (the render path's emitter proxies): the lamps at their real size "
+          "standing in for each planar emitter (the render path's emitter proxies; casting no shadow since session 21, "
+          "what the model's bake recorded otherwise): the lamps at their real size "
           "with soft shadows and the world's light from the probes, no indirect light. The input of GI-off "
           "one-render models (issue 15: a frame that is one EEVEE render without EEVEE's GI, docs/one_render.md); "
           "every group they read comes from that render, and so does the rest.",

@@ -234,9 +234,10 @@ def planar_emitters(scene) -> list[tuple]:
 
 
 @contextlib.contextmanager
-def emitter_proxies(scene):
+def emitter_proxies(scene, shadows: bool = True):
     """Stand an area light in for each planar emitter (``planar_emitters``) while the block runs, and remove them
-    after. EEVEE lights nothing from an emissive mesh off screen (its ray tracing sees only the screen), so in
+    after; with ``shadows`` False the proxies cast no shadow (the GI-off one render's, passes.ONE_RENDER_MODES:
+    their shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 on Mesa, docs/one_render.md). EEVEE lights nothing from an emissive mesh off screen (its ray tracing sees only the screen), so in
     its own render the walls an emissive panel lights stay dark and a mirror reflects them dark, where Cycles
     shows them lit: the rest (EEVEE's reflections, transmission) then misses that light. Each proxy is a
     rectangle of the emitter's size and place, one facing each side (an emissive plane gives off light on both
@@ -259,6 +260,7 @@ def emitter_proxies(scene):
                 li.shape, li.size, li.size_y = "RECTANGLE", float(d.x), float(d.y)
                 li.energy = float(math.pi * strength * d.x * d.y)
                 li.color = colour
+                li.use_shadow = bool(shadows)
                 ob = bpy.data.objects.new(li.name, li)
                 scene.collection.objects.link(ob)
                 ob.matrix_world = Matrix.Translation(o.matrix_world.translation) @ side.to_4x4()

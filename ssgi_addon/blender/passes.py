@@ -38,10 +38,30 @@ PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() 
 # groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
 # input of one-render models; issue 15, docs/one_render.md)
 REST_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")
-# how the one render of each kind of one-render model is made: (ray tracing + fast GI, emitter proxies). eevee_diffuse:
-# both on, no proxies (the models trained on it, docs/one_render.md); eevee_local: both off, proxies on (a frame
-# without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter without its GI)
-ONE_RENDER_MODES: dict[str, tuple[bool, bool]] = {"eevee_diffuse": (True, False), "eevee_local": (False, True)}
+# whether the GI-off one render's emitter proxies cast shadows: no (session 21, docs/one_render.md). On Mesa their
+# shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 at 16 samples (benchmarks/pass_cost.py), and EEVEE's
+# soft shadows at 16 samples are noisy where the network passed the noise on; the network and the shot's lightmap
+# put the shadows back: withheld frames 38.15 dB unshadowed against 37.79 shadowed (same session, same command).
+# Models baked before record no setting and keep shadowed proxies (recorded_proxy_shadows).
+PROXY_SHADOWS_LOCAL = False
+# how the one render of each kind of one-render model is made: (ray tracing + fast GI, emitter proxies, the proxies'
+# shadows). eevee_diffuse: both on, no proxies (the models trained on it, docs/one_render.md); eevee_local: both off,
+# proxies on (a frame without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter
+# without its GI), PROXY_SHADOWS_LOCAL
+ONE_RENDER_MODES: dict[str, tuple[bool, bool, bool]] = {"eevee_diffuse": (True, False, True),
+                                                        "eevee_local": (False, True, PROXY_SHADOWS_LOCAL)}
+
+
+def recorded_proxy_shadows(meta: dict) -> bool | None:
+    """Whether the emitter proxies of the one render a model was trained on cast shadows, from its checkpoint's
+    data (the bake manifest's ``eevee.one_render``): None for a model not trained on a one render with proxies.
+    Models baked before the setting was recorded had shadowed proxies."""
+    one = (((meta or {}).get("dataset") or {}).get("settings") or {}).get("eevee", {}).get("one_render") or {}
+    if not one.get("emitter_proxies"):
+        return None
+    return bool(one.get("emitter_proxy_shadows", True))
+
+
 # groups only the artist-settings render gives, whatever the samples: its Glossy Color pass (gloss: a shot's
 # reflection map, model/infer/reflmap.py, corrects EEVEE's reflections where it is)
 REST_ONLY_GROUPS = ("gloss",)
@@ -406,7 +426,8 @@ REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_
 REST_EMITTER_PROXIES = True
 
 
-def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False):
+def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
+                proxy_shadows: bool = True):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -425,7 +446,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     (``eevee_local``); None keeps the scene's. With ``proxies`` an area light stands in for each planar emitter during the render
     (``direct_light.emitter_proxies``; the render path's and the bakes' rest, ``REST_EMITTER_PROXIES``), so that
     EEVEE's reflections and transmission see the light the emitters cast; without, the render is EEVEE's own.
-    The settings it changes are put back."""
+    ``proxy_shadows`` False: the proxies cast no shadow (``ONE_RENDER_MODES``). The settings it changes are put back."""
     from . import direct_light
 
     _check_camera(scene)
@@ -433,7 +454,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS:
             raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: "
                              f"{SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS}")
-    with _settings_kept(scene), (direct_light.emitter_proxies(scene) if proxies else contextlib.nullcontext()):
+    with _settings_kept(scene), (direct_light.emitter_proxies(scene, proxy_shadows) if proxies else contextlib.nullcontext()):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
@@ -471,7 +492,8 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
-                   raster_samples: int | None = None, proxies: bool = REST_EMITTER_PROXIES) -> dict[str, np.ndarray]:
+                   raster_samples: int | None = None, proxies: bool = REST_EMITTER_PROXIES,
+                   proxy_shadows: bool | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -488,7 +510,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     one-render model's every input is of that one render (docs/one_render.md). ``eevee_local`` (a GI-off one-render
     model) likewise, from that render made with ray tracing and fast GI off and the emitter proxies on
     (``ONE_RENDER_MODES``). ``proxies``: the rest render stands area lights in for planar emitters
-    (``render_rest``; not for ``eevee_diffuse``, an input the one-render models were trained on without). The scene's render settings are put back."""
+    (``render_rest``; not for ``eevee_diffuse``, an input the one-render models were trained on without);
+    ``proxy_shadows``: whether they cast shadows (None: ``ONE_RENDER_MODES``' for a one-render model, else True;
+    a model's own is ``recorded_proxy_shadows``). The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -504,7 +528,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
         raise ValueError(f"groups {ones} come from different one-render renders (ray tracing and fast GI on / off): "
                          "ask for one")
     one = bool(ones)  # a one-render model: every group from its one render
-    gi, proxied = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies)
+    gi, proxied, shadowed = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies, True)
+    if proxy_shadows is not None:
+        shadowed = bool(proxy_shadows)
     with_rest = "rest" in groups or one or any(g in REST_ONLY_GROUPS for g in groups)
     # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
     # on the lighting)
@@ -536,7 +562,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if with_rest:
-        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied)
+        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed)
         out["rest"], out["beauty"] = made[:2]
         if rest_groups:
             out.update(made[2])

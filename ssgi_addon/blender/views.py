@@ -312,7 +312,8 @@ def views_tag(blend: Path, plan: dict) -> str:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     keys = ("scene", "frames", "cameras", "size", "seed", "radius") + tuple(
-        k for k in ("test_frames", "rest_samples") if k in plan)  # (so that a plan without them keeps its old tag)
+        k for k in ("test_frames", "rest_samples", "one_render", "proxy_shadows")
+        if k in plan)  # (so that a plan without them keeps its old tag)
     h.update(json.dumps({k: plan.get(k) for k in keys},
                         sort_keys=True).encode())
     return h.hexdigest()[:8]

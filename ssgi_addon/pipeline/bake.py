@@ -63,9 +63,9 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
                               "emitter_proxies": passes.REST_EMITTER_PROXIES}
     if gi_samples:
         light = ONE_RENDER_KINDS[one_render]
-        gi, proxies = passes.ONE_RENDER_MODES[light]
+        gi, proxies, shadows = passes.ONE_RENDER_MODES[light]
         s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": gi, "fast_gi": gi, "kind": one_render,
-                                    "emitter_proxies": proxies,
+                                    "emitter_proxies": proxies, "emitter_proxy_shadows": shadows if proxies else None,
                                     "groups_from_it": [light, "rest", *passes.SHARED_GROUPS,
                                                        *ONE_RENDER_EXTRA[one_render]],
                                     "rest": passes.REST_MODE}

@@ -1,6 +1,7 @@
 """Issue 15, item 4: GI-off one-render models (docs/one_render.md, session 20). A frame of such a model is ONE EEVEE
-render with ray tracing and fast GI switched off and an area light standing in for each planar emitter
-(``passes.ONE_RENDER_MODES["eevee_local"]``): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
+render with ray tracing and fast GI switched off and an area light standing in for each planar emitter, casting
+no shadow since session 21 (``passes.ONE_RENDER_MODES["eevee_local"]``; a model baked with shadowed proxies gets
+them): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
 emission, rest and gloss come from it too. ``cli.py fit --one-render`` bakes views of that render and fits scratch
 networks (head ``residual_local``) on them. Real EEVEE and Cycles at tiny sizes: the pass call makes one render with
 GI off and proxies on and puts the artist's settings back; a tiny one-render shot fit writes a model that reads
@@ -32,14 +33,24 @@ groups = ("albedo", "normal", "depth", "emission", "eevee_local", "surround", "r
 one = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2)
 res = {"renders": sorted(passes.last_timings), "sources": dict(passes.last_sources),
        "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi], "lights_after": len(bpy.data.lights) - n_lights}
-rest, _c, own = passes.render_rest(sc, 2, groups=("eevee_local", "gloss"), gi=False, proxies=True)
-gi_on = passes.render_rest(sc, 2, groups=("eevee_local",), gi=True, proxies=True)[2]["eevee_local"]
+_gi, _p, shadows = passes.ONE_RENDER_MODES["eevee_local"]
+rest, _c, own = passes.render_rest(sc, 2, groups=("eevee_local", "gloss"), gi=False, proxies=True, proxy_shadows=shadows)
+gi_on = passes.render_rest(sc, 2, groups=("eevee_local",), gi=True, proxies=True,
+                           proxy_shadows=shadows)[2]["eevee_local"]
+# the proxies' shadows: the one render's default (unshadowed, session 21), and a model that was trained on
+# shadowed ones gets them (render_gbuffer's proxy_shadows, which the node takes from the model)
+shadowed = passes.render_gbuffer(sc, ("depth", "eevee_local"), samples=2, rest_samples=2, proxy_shadows=True)
+own_shadowed = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False, proxies=True,
+                                  proxy_shadows=True)[2]["eevee_local"]
+res["shadows"] = {"default": shadows, "vs_own_shadowed": float(np.abs(shadowed["eevee_local"] - own_shadowed).max())}
 no_proxy = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False)[2]["eevee_local"]
 res["vs_own_render"] = {"eevee_local": float(np.abs(one["eevee_local"] - own["eevee_local"]).max()),
                         "gloss": float(np.abs(one["gloss"] - own["gloss"]).max()),
                         "rest": float(np.abs(one["rest"] - rest).max())}
 geo = one["depth"][..., 0] < 0.999 * sc.camera.data.clip_end
 res["mean"] = {"local": float(one["eevee_local"][geo].mean()), "no_proxy": float(no_proxy[geo].mean()),
+               "shadowed": float(own_shadowed[geo].mean()),
+               "darker_shadowed": float((own_shadowed[geo] < one["eevee_local"][geo] - 0.02).mean()),
                "gi_on_vs_off": float(np.abs(gi_on - own["eevee_local"])[geo].mean())}
 try:
     passes.render_gbuffer(sc, ("albedo", "eevee_local", "eevee_diffuse"), samples=1)
@@ -63,6 +74,9 @@ def test_a_gi_off_one_render_call_makes_one_render_with_gi_off_and_proxies_on_an
     assert m["local"] > 0.05 and m["no_proxy"] < 0.2 * m["local"], m
     # ... and ray tracing + fast GI were off (with them on, the same render's diffuse light differs)
     assert m["gi_on_vs_off"] > 1e-3, m
+    # the one render's proxies cast no shadow; asked for shadowed ones, the floor under the box and the ball darkens
+    assert res["shadows"]["default"] is False and res["shadows"]["vs_own_shadowed"] <= 1e-6, res["shadows"]
+    assert m["shadowed"] < m["local"] and m["darker_shadowed"] > 0.02, m
     assert "different one-render renders" in res["both"], res["both"]
 
 
@@ -119,7 +133,12 @@ setup_scene(sc, model)
 s = RenderSession(sc, frames=[5], model=model, write=False, keep_groups=True)
 s.run()
 r = s.results[0]
+# a model of a one render with shadowed proxies (its manifest from before session 21 did not say) gets them
+from ssgi.ssgi_addon.blender.passes import recorded_proxy_shadows
+one = s.predictor.inner.meta["dataset"]["settings"]["eevee"]["one_render"]
+old = {"dataset": {"settings": {"eevee": {"one_render": {k: v for k, v in one.items() if k != "emitter_proxy_shadows"}}}}}
 print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": sorted(r["groups"]),
+                            "proxy_shadows": [s.proxy_shadows, recorded_proxy_shadows(old), recorded_proxy_shadows({})],
                             "finite": bool(np.isfinite(r["prediction"]).all()), "mean": float(r["prediction"].mean()),
                             "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi]}))
 '''
@@ -147,6 +166,7 @@ def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders
     m = json.loads(views.read_text())
     one = m["settings"]["eevee"]["one_render"]
     assert one["kind"] == "local" and one["raytracing"] is False and one["emitter_proxies"] is True, one
+    assert one["emitter_proxy_shadows"] is False, one  # recorded: the node renders the model's frames so
     held = {g["name"] for g in m["channel_spec"] if "channels" in g}
     assert {"eevee_local", "rest", "gloss"} <= held and not held & {"world", "direct_soft", "emit_direct"}, held
     # the withheld frames are scored against EEVEE's own render too, and the fitted image beats it there
@@ -159,3 +179,4 @@ def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders
     assert set(res["renders"]) <= {"rest", "surround"} and "rest" in res["renders"], res["renders"]
     assert not set(res["groups"]) & {"direct", "world", "direct_soft", "emit_direct", "eevee"}, res["groups"]
     assert res["finite"] and res["mean"] > 0.01 and res["rt_after"] == [True, True], res
+    assert res["proxy_shadows"] == [False, True, None], res["proxy_shadows"]
