@@ -27,7 +27,8 @@ Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every gr
 path before issue 15), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
 ``raster1`` (merged + the direct-only render at 1 sample, as the bake renders it), ``rest4`` (raster1 + the
 artist-settings render at 4 samples, not the scene's), ``proxy_shadows`` / ``proxy_no_shadows`` (merged, a GI-off
-one-render model's emitter proxies with / without shadows, whatever its bake recorded). ``--samples N`` renders EEVEE
+one-render model's emitter proxies with / without shadows, whatever its bake recorded), ``proxy_both_sides`` /
+``proxy_open_sides`` (unshadowed proxies on every side of an emitter / only on the sides facing open space). ``--samples N`` renders EEVEE
 GI and every frame at N samples instead of the scene's own.
 """
 from __future__ import annotations
@@ -57,6 +58,9 @@ VARIANTS: dict[str, dict] = {
     # a GI-off one-render model's emitter proxies with / without shadows, whatever the model's bake recorded
     "proxy_shadows": dict(merge=True, proxy_shadows=True),
     "proxy_no_shadows": dict(merge=True, proxy_shadows=False),
+    # unshadowed proxies on every side of an emitter, or only on the sides facing open space (session 23)
+    "proxy_both_sides": dict(merge=True, proxy_shadows=False, proxy_sides="both"),
+    "proxy_open_sides": dict(merge=True, proxy_shadows=False, proxy_sides="open"),
 }
 RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround")  # surround: ray casts, no render
 WARM_SIZE = (64, 36)

@@ -11,7 +11,8 @@ the motion vectors of the temporal mode), all with ray tracing + fast GI on, ``N
 what EEVEE's own GI costs the render) and ``GI_OFF_SETS`` with both off (the passes a GI-off one-render frame would
 read), and ``ONE_RENDER_SETS``: the six passes a GI-off one-render frame of a shot with an emitter and a glossy
 surface writes, with the emitter proxies (direct_light.emitter_proxies) casting shadows, casting none, or absent
-(session 21). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
+(session 21; ``one_open_proxies``: unshadowed, only on the sides facing open space, the default since
+session 23). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
 with ray tracing and fast GI off as NAME_no_gi. ``--frame`` / ``--samples``: the frame and the EEVEE samples of
 every render (default: frame 1, the file's samples). Prints each render's seconds, the minimum and the median;
 machine-noisy, so quote ratios from one run:
@@ -35,7 +36,9 @@ from ssgi.model.cliargs import parse_size  # noqa: E402
 
 PASSES = ("use_pass_diffuse_color", "use_pass_diffuse_direct", "use_pass_normal", "use_pass_z", "use_pass_emit")
 VECTOR = "use_pass_vector"
-CONFIGS: dict[str, tuple[str, ...]] = {"combined": (), **{p[len("use_pass_"):]: (p,) for p in PASSES + (VECTOR,)},
+# passes a model could read instead (session 22: the Glossy Color of the reflection map, Position for normals)
+SINGLES = ("use_pass_glossy_color", "use_pass_position")
+CONFIGS: dict[str, tuple[str, ...]] = {"combined": (), **{p[len("use_pass_"):]: (p,) for p in PASSES + (VECTOR,) + SINGLES},
                                        "ssgi5": PASSES, "ssgi5+vector": PASSES + (VECTOR,)}
 NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEVEE's own GI costs the render
 # A frame that replaces EEVEE's GI with a network needs no ray tracing or fast GI in its one render: every
@@ -48,8 +51,11 @@ GI_OFF_SETS: dict[str, tuple[str, ...]] = {"ssgi4": PASSES[:4], "ssgi2": PASSES[
 # reflection map's), with the emitter proxies shadowed (sessions 20), unshadowed (21, the default) or absent:
 # {name: (passes, proxies: None = none, else their shadows)}
 ONE_PASSES = PASSES + ("use_pass_glossy_color",)
-ONE_RENDER_SETS: dict[str, tuple[tuple[str, ...], bool | None]] = {
-    "one_shadowed_proxies": (ONE_PASSES, True), "one_proxies": (ONE_PASSES, False), "one": (ONE_PASSES, None)}
+# (session 23: the proxies of every side, as before, or only of the sides facing open space,
+# direct_light.open_sides, the default since; "one_proxies" and "one_shadowed_proxies" keep every side)
+ONE_RENDER_SETS: dict[str, tuple[tuple[str, ...], tuple[bool, str] | None]] = {
+    "one_shadowed_proxies": (ONE_PASSES, (True, "both")), "one_proxies": (ONE_PASSES, (False, "both")),
+    "one_open_proxies": (ONE_PASSES, (False, "open")), "one": (ONE_PASSES, None)}
 
 
 def optional_pass_flags(view_layer) -> list[str]:
@@ -58,15 +64,15 @@ def optional_pass_flags(view_layer) -> list[str]:
             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
 
 
-def render(scene, on, gi: bool = True, proxies: bool | None = None) -> float:
+def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) -> float:
     """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
-    with ``proxies`` not None the emitter proxies (their shadows on / off) in the scene during it."""
+    with ``proxies`` not None the emitter proxies ((their shadows on / off, which sides)) in the scene during it."""
     from ssgi.ssgi_addon.blender import direct_light
     vl = scene.view_layers[0]
     for f in optional_pass_flags(vl):
         setattr(vl, f, f in on)
     scene.eevee.use_raytracing = scene.eevee.use_fast_gi = gi
-    with direct_light.emitter_proxies(scene, proxies) if proxies is not None else contextlib.nullcontext():
+    with direct_light.emitter_proxies(scene, *proxies) if proxies is not None else contextlib.nullcontext():
         t = time.perf_counter()
         bpy.ops.render.render(write_still=False)
         return time.perf_counter() - t

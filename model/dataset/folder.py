@@ -146,6 +146,10 @@ def check_compatible(manifest: dict, settings: dict, where) -> None:
     diff = [f"{k}={old.get(k)!r} (not {k}={settings.get(k)!r})" for k in IDENTITY_SETTINGS
             if (k in settings or k in old)
             and json.dumps(old.get(k), sort_keys=True) != json.dumps(settings.get(k), sort_keys=True)]
+    # and the one render of a one-render bake (its GI, its emitter proxies' shadows and sides: the input it holds)
+    one_old, one_new = ((s.get("eevee") or {}).get("one_render") for s in (old, settings))
+    if (one_old or one_new) and json.dumps(one_old, sort_keys=True) != json.dumps(one_new, sort_keys=True):
+        diff.append(f"eevee.one_render={one_old!r} (not {one_new!r})")
     if diff:
         raise UserError(f"{where}: holds a dataset baked with {', '.join(diff)}; "
                         f"bake into another folder (datasets of different settings are never mixed)")

@@ -233,15 +233,55 @@ def planar_emitters(scene) -> list[tuple]:
     return out
 
 
+# A side of a planar emitter that faces a surface closer than this fraction of the emitter's larger side, at its
+# centre and near each corner, gets no proxy (``open_sides``): a panel hung just under a ceiling gives off its back
+# light into the gap, where no camera sees it (issue 15's Cornell panel hangs 2 mm under the ceiling, 0.4 % of its
+# 0.5 m side). Such a proxy still costs EEVEE's render its light evaluation at every pixel, and, unshadowed (the
+# GI-off one render's), leaks light through the ceiling onto whatever lies above it.
+BLOCKED_GAP = 0.02
+_PROBES = ((0.0, 0.0), (-0.45, -0.45), (0.45, -0.45), (-0.45, 0.45), (0.45, 0.45))  # in the emitter's size
+
+
+def open_sides(scene, o) -> list[bool]:
+    """[front (+Z), back (-Z)]: whether each side of the planar emitter ``o`` faces open space, False where rays from
+    its centre and near its four corners (``_PROBES``) all hit a surface within ``BLOCKED_GAP`` of its larger side
+    (``Scene.ray_cast`` on the evaluated depsgraph, so the surfaces at the scene's current frame)."""
+    from mathutils import Vector
+
+    from .surround import _depsgraph
+    dg = _depsgraph(scene)
+    m = o.matrix_world
+    d = o.dimensions
+    gap = BLOCKED_GAP * max(d.x, d.y)
+    n = (m.to_3x3() @ Vector((0.0, 0.0, 1.0))).normalized()
+    # the probes on the plane through the emitter's origin, in world space (o.dimensions are world-scaled)
+    ax = (m.to_3x3() @ Vector((1.0, 0.0, 0.0))).normalized() * d.x
+    ay = (m.to_3x3() @ Vector((0.0, 1.0, 0.0))).normalized() * d.y
+    c = m.translation
+    out = []
+    for sign in (1.0, -1.0):
+        ray = n * sign
+        eps = 1e-4 * max(d.x, d.y)  # start off the emitter's own plane
+        blocked = True
+        for u, v in _PROBES:
+            hit, loc, *_ = scene.ray_cast(dg, c + ax * u + ay * v + ray * eps, ray, distance=gap)
+            if not hit:
+                blocked = False
+                break
+        out.append(not blocked)
+    return out
+
+
 @contextlib.contextmanager
-def emitter_proxies(scene, shadows: bool = True):
+def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     """Stand an area light in for each planar emitter (``planar_emitters``) while the block runs, and remove them
     after; with ``shadows`` False the proxies cast no shadow (the GI-off one render's, passes.ONE_RENDER_MODES:
     their shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 on Mesa, docs/one_render.md). EEVEE lights nothing from an emissive mesh off screen (its ray tracing sees only the screen), so in
     its own render the walls an emissive panel lights stay dark and a mirror reflects them dark, where Cycles
     shows them lit: the rest (EEVEE's reflections, transmission) then misses that light. Each proxy is a
     rectangle of the emitter's size and place, one facing each side (an emissive plane gives off light on both
-    sides), of the emitter's colour and power ``pi x strength x area`` (the power of a Lambertian surface of
+    sides; with ``sides`` "open" only for a side that faces open space, ``open_sides``: none for a side pressed
+    against a surface), of the emitter's colour and power ``pi x strength x area`` (the power of a Lambertian surface of
     that radiance); its specular factor 1, so that glossy surfaces and mirrors show the panel's highlight as
     Cycles does. Measured on issue 10's Cornell box with its emissive panel (docs/fit_shot.md, session 18): the
     ceiling of a diffuse-part model (Cycles' diffuse part + EEVEE's rest) rose from 29.4 to 34.5 dB on
@@ -255,7 +295,9 @@ def emitter_proxies(scene, shadows: bool = True):
         for o, strength, colour in planar_emitters(scene):
             d = o.dimensions
             rot = o.matrix_world.to_3x3().normalized()
-            for side in (rot @ flip, rot):  # an area light shines along its -Z: first the plane's front (+Z)
+            front, back = open_sides(scene, o) if sides == "open" else (True, True)
+            # an area light shines along its -Z: first the plane's front (+Z); no proxy for a side facing a surface
+            for side in [s for s, is_open in ((rot @ flip, front), (rot, back)) if is_open]:
                 li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "AREA")
                 li.shape, li.size, li.size_y = "RECTANGLE", float(d.x), float(d.y)
                 li.energy = float(math.pi * strength * d.x * d.y)

@@ -44,6 +44,11 @@ REST_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")
 # put the shadows back: withheld frames 38.15 dB unshadowed against 37.79 shadowed (same session, same command).
 # Models baked before record no setting and keep shadowed proxies (recorded_proxy_shadows).
 PROXY_SHADOWS_LOCAL = False
+# which sides of a planar emitter get a proxy in the GI-off one render: "open", only those facing open space
+# (direct_light.open_sides; session 23: the Cornell panel, 2 mm under the ceiling, gets one proxy, not two); "both",
+# every side (the rest render of the other models, and the one-render models baked before session 23, which record
+# no setting: recorded_proxy_sides)
+PROXY_SIDES_LOCAL = "open"
 # how the one render of each kind of one-render model is made: (ray tracing + fast GI, emitter proxies, the proxies'
 # shadows). eevee_diffuse: both on, no proxies (the models trained on it, docs/one_render.md); eevee_local: both off,
 # proxies on (a frame without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter
@@ -60,6 +65,16 @@ def recorded_proxy_shadows(meta: dict) -> bool | None:
     if not one.get("emitter_proxies"):
         return None
     return bool(one.get("emitter_proxy_shadows", True))
+
+
+def recorded_proxy_sides(meta: dict) -> str | None:
+    """Which sides of the planar emitters got a proxy in the one render a model was trained on ("open" / "both",
+    ``direct_light.emitter_proxies``), from its checkpoint's data; None for a model not trained on a one render with
+    proxies. Models baked before the setting was recorded had a proxy on both sides."""
+    one = (((meta or {}).get("dataset") or {}).get("settings") or {}).get("eevee", {}).get("one_render") or {}
+    if not one.get("emitter_proxies"):
+        return None
+    return str(one.get("emitter_proxy_sides", "both"))
 
 
 # groups only the artist-settings render gives, whatever the samples: its Glossy Color pass (gloss: a shot's
@@ -427,7 +442,7 @@ REST_EMITTER_PROXIES = True
 
 
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
-                proxy_shadows: bool = True):
+                proxy_shadows: bool = True, proxy_sides: str = "both"):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -446,7 +461,8 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     (``eevee_local``); None keeps the scene's. With ``proxies`` an area light stands in for each planar emitter during the render
     (``direct_light.emitter_proxies``; the render path's and the bakes' rest, ``REST_EMITTER_PROXIES``), so that
     EEVEE's reflections and transmission see the light the emitters cast; without, the render is EEVEE's own.
-    ``proxy_shadows`` False: the proxies cast no shadow (``ONE_RENDER_MODES``). The settings it changes are put back."""
+    ``proxy_shadows`` False: the proxies cast no shadow (``ONE_RENDER_MODES``); ``proxy_sides`` "open": a proxy only
+    for the sides of an emitter that face open space (``PROXY_SIDES_LOCAL``). The settings it changes are put back."""
     from . import direct_light
 
     _check_camera(scene)
@@ -454,7 +470,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS:
             raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: "
                              f"{SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS}")
-    with _settings_kept(scene), (direct_light.emitter_proxies(scene, proxy_shadows) if proxies else contextlib.nullcontext()):
+    with _settings_kept(scene), (direct_light.emitter_proxies(scene, proxy_shadows, proxy_sides) if proxies else contextlib.nullcontext()):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
@@ -493,7 +509,7 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
                    raster_samples: int | None = None, proxies: bool = REST_EMITTER_PROXIES,
-                   proxy_shadows: bool | None = None) -> dict[str, np.ndarray]:
+                   proxy_shadows: bool | None = None, proxy_sides: str | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -512,7 +528,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     (``ONE_RENDER_MODES``). ``proxies``: the rest render stands area lights in for planar emitters
     (``render_rest``; not for ``eevee_diffuse``, an input the one-render models were trained on without);
     ``proxy_shadows``: whether they cast shadows (None: ``ONE_RENDER_MODES``' for a one-render model, else True;
-    a model's own is ``recorded_proxy_shadows``). The scene's render settings are put back."""
+    a model's own is ``recorded_proxy_shadows``); ``proxy_sides``: which sides of an emitter get one (None:
+    ``PROXY_SIDES_LOCAL`` for a GI-off one-render model, else "both"; a model's own is ``recorded_proxy_sides``). The
+    scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -531,6 +549,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     gi, proxied, shadowed = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies, True)
     if proxy_shadows is not None:
         shadowed = bool(proxy_shadows)
+    sides = proxy_sides or (PROXY_SIDES_LOCAL if ones == ["eevee_local"] else "both")
+    if sides not in ("open", "both"):
+        raise ValueError(f"proxy_sides {sides!r}: 'open' or 'both'")
     with_rest = "rest" in groups or one or any(g in REST_ONLY_GROUPS for g in groups)
     # (a one-render model's motion vectors, for the temporal mode, come from that render too: they do not depend
     # on the lighting)
@@ -562,7 +583,8 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     if with_rest:
-        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed)
+        made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed,
+                           proxy_sides=sides)
         out["rest"], out["beauty"] = made[:2]
         if rest_groups:
             out.update(made[2])

@@ -66,6 +66,8 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
         gi, proxies, shadows = passes.ONE_RENDER_MODES[light]
         s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": gi, "fast_gi": gi, "kind": one_render,
                                     "emitter_proxies": proxies, "emitter_proxy_shadows": shadows if proxies else None,
+                                    "emitter_proxy_sides": (passes.PROXY_SIDES_LOCAL if light == "eevee_local" else "both")
+                                    if proxies else None,
                                     "groups_from_it": [light, "rest", *passes.SHARED_GROUPS,
                                                        *ONE_RENDER_EXTRA[one_render]],
                                     "rest": passes.REST_MODE}

@@ -229,8 +229,9 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         if cfg.one_render:  # every group from the one GI-off render, at the scene's own samples
             plan["one_render"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
             # (in the views' tag: views baked with the emitter proxies' other shadows are not reused)
-            from ..blender.passes import ONE_RENDER_MODES
+            from ..blender.passes import ONE_RENDER_MODES, PROXY_SIDES_LOCAL
             plan["proxy_shadows"] = ONE_RENDER_MODES["eevee_local"][2]
+            plan["proxy_sides"] = PROXY_SIDES_LOCAL
             plan["glossy"] = bool(has_glossy(scene))
         elif cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
             plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)

@@ -226,12 +226,14 @@ class ReportRun:
     def _one_render_groups(self, scene, samples: int) -> dict:
         """Every group the one-render models read, and the rest, from one passes.render_gbuffer call: the
         artist-settings render with ray tracing and fast GI on, as the render path makes it (the emitter proxies
-        shadowed or not as the models' bakes recorded; models that disagree get ONE_RENDER_MODES' default)."""
+        shadowed or not, on the sides, as the models' bakes recorded; models that disagree get the defaults)."""
         ones = [p for _, p in self._model_keys.values() if _one_render(p)]
         want = tuple(dict.fromkeys(g for p in ones for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal", "rest")))
         rec = {passes.recorded_proxy_shadows(getattr(p, "meta", None) or {}) for p in ones} - {None}
+        sides = {passes.recorded_proxy_sides(getattr(p, "meta", None) or {}) for p in ones} - {None}
         return passes.render_gbuffer(scene, want, samples=samples, rest_samples=samples,
-                                     **({"proxy_shadows": rec.pop()} if len(rec) == 1 else {}))
+                                     **({"proxy_shadows": rec.pop()} if len(rec) == 1 else {}),
+                                     **({"proxy_sides": sides.pop()} if len(sides) == 1 else {}))
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")

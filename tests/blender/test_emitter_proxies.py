@@ -43,6 +43,18 @@ with direct_light.emitter_proxies(sc) as made:
     res["proxies"] = [(o.data.type, round(o.data.energy, 3), round(o.data.size, 3), round(o.data.size_y, 3),
                        [round(v, 3) for v in (o.matrix_world.to_3x3() @ __import__("mathutils").Vector((0, 0, -1)))])
                       for o in made]
+# the panel hangs 2 mm under the ceiling: only its downward side faces open space
+res["open_sides"] = direct_light.open_sides(sc, bpy.data.objects["emissive_panel"])
+with direct_light.emitter_proxies(sc, sides="open") as made:
+    res["open_proxies"] = [[round(v, 3) for v in (o.matrix_world.to_3x3() @ __import__("mathutils").Vector((0, 0, -1)))]
+                           for o in made]
+res["left_behind_open"] = [len(bpy.data.lights) - n_lights, len(bpy.data.objects) - n_objects]
+# lifted 0.3 m off the ceiling it faces open space both ways
+bpy.data.objects["emissive_panel"].location.z -= 0.3
+bpy.context.view_layer.update()
+res["open_sides_lowered"] = direct_light.open_sides(sc, bpy.data.objects["emissive_panel"])
+bpy.data.objects["emissive_panel"].location.z += 0.3
+bpy.context.view_layer.update()
 g = passes.render_gbuffer(sc, ("albedo", "rest"), samples=4, rest_samples=4)
 ref = passes.render_cycles(sc, 64, seed=3, denoise=True, groups=("ref", "ref_diffuse"))
 cyc_rest = ref["ref"] - ref["ref_diffuse"]
@@ -69,6 +81,10 @@ def test_the_rest_render_lights_what_a_planar_emitter_lights_and_leaves_the_scen
     for kind, energy, sx, sy, _d in res["proxies"]:
         assert kind == "AREA" and abs(energy - 3.14159 * 20 * 0.2) < 0.01 and (sx, sy) == (0.5, 0.4), res["proxies"]
     assert sorted(round(p[4][2]) for p in res["proxies"]) == [-1, 1], res["proxies"]
+    # with sides="open" one proxy, facing down into the box (the side 2 mm under the ceiling gets none)
+    assert res["open_sides"] == [True, False] and res["open_sides_lowered"] == [True, True], res
+    assert [round(v) for v in res["open_proxies"][0]] == [0, 0, -1] and len(res["open_proxies"]) == 1, res
+    assert res["left_behind_open"] == [0, 0], res
     b = res["ball"]
     # the mirror ball: brighter with the proxies, and closer to Cycles' non-diffuse light there
     assert b["proxied"] > 1.5 * b["plain"], b

@@ -1,7 +1,7 @@
 """Issue 15, item 4: GI-off one-render models (docs/one_render.md, session 20). A frame of such a model is ONE EEVEE
 render with ray tracing and fast GI switched off and an area light standing in for each planar emitter, casting
 no shadow since session 21 (``passes.ONE_RENDER_MODES["eevee_local"]``; a model baked with shadowed proxies gets
-them): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
+them) and only on the sides of an emitter that face open space since session 23 (``passes.PROXY_SIDES_LOCAL``): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
 emission, rest and gloss come from it too. ``cli.py fit --one-render`` bakes views of that render and fits scratch
 networks (head ``residual_local``) on them. Real EEVEE and Cycles at tiny sizes: the pass call makes one render with
 GI off and proxies on and puts the artist's settings back; a tiny one-render shot fit writes a model that reads
@@ -34,14 +34,24 @@ one = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2)
 res = {"renders": sorted(passes.last_timings), "sources": dict(passes.last_sources),
        "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi], "lights_after": len(bpy.data.lights) - n_lights}
 _gi, _p, shadows = passes.ONE_RENDER_MODES["eevee_local"]
-rest, _c, own = passes.render_rest(sc, 2, groups=("eevee_local", "gloss"), gi=False, proxies=True, proxy_shadows=shadows)
+sides = passes.PROXY_SIDES_LOCAL
+rest, _c, own = passes.render_rest(sc, 2, groups=("eevee_local", "gloss"), gi=False, proxies=True, proxy_shadows=shadows,
+                                   proxy_sides=sides)
 gi_on = passes.render_rest(sc, 2, groups=("eevee_local",), gi=True, proxies=True,
-                           proxy_shadows=shadows)[2]["eevee_local"]
+                           proxy_shadows=shadows, proxy_sides=sides)[2]["eevee_local"]
+# the proxies' sides: only the panel's downward side faces open space (session 23); a model baked with a proxy on
+# both sides gets both (render_gbuffer's proxy_sides, which the node takes from the model)
+both = passes.render_gbuffer(sc, ("depth", "eevee_local"), samples=2, rest_samples=2, proxy_sides="both")
+own_both = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False, proxies=True, proxy_shadows=shadows,
+                              proxy_sides="both")[2]["eevee_local"]
+d = np.abs(both["eevee_local"] - one["eevee_local"]).max(-1)
+res["sides"] = {"default": sides, "vs_own_both": float(np.abs(both["eevee_local"] - own_both).max()),
+                "max_diff": float(d.max()), "frac_diff": float((d > 1e-3).mean())}
 # the proxies' shadows: the one render's default (unshadowed, session 21), and a model that was trained on
 # shadowed ones gets them (render_gbuffer's proxy_shadows, which the node takes from the model)
 shadowed = passes.render_gbuffer(sc, ("depth", "eevee_local"), samples=2, rest_samples=2, proxy_shadows=True)
 own_shadowed = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False, proxies=True,
-                                  proxy_shadows=True)[2]["eevee_local"]
+                                  proxy_shadows=True, proxy_sides=sides)[2]["eevee_local"]
 res["shadows"] = {"default": shadows, "vs_own_shadowed": float(np.abs(shadowed["eevee_local"] - own_shadowed).max())}
 no_proxy = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False)[2]["eevee_local"]
 res["vs_own_render"] = {"eevee_local": float(np.abs(one["eevee_local"] - own["eevee_local"]).max()),
@@ -77,6 +87,11 @@ def test_a_gi_off_one_render_call_makes_one_render_with_gi_off_and_proxies_on_an
     # the one render's proxies cast no shadow; asked for shadowed ones, the floor under the box and the ball darkens
     assert res["shadows"]["default"] is False and res["shadows"]["vs_own_shadowed"] <= 1e-6, res["shadows"]
     assert m["shadowed"] < m["local"] and m["darker_shadowed"] > 0.02, m
+    # one proxy, facing down; asked for both sides, the ceiling's rim round the panel is lit by the upward one, the
+    # rest of the image is the same
+    sd = res["sides"]
+    assert sd["default"] == "open" and sd["vs_own_both"] <= 1e-6, sd
+    assert sd["max_diff"] > 0.01 and sd["frac_diff"] < 0.05, sd
     assert "different one-render renders" in res["both"], res["both"]
 
 
@@ -134,11 +149,13 @@ s = RenderSession(sc, frames=[5], model=model, write=False, keep_groups=True)
 s.run()
 r = s.results[0]
 # a model of a one render with shadowed proxies (its manifest from before session 21 did not say) gets them
-from ssgi.ssgi_addon.blender.passes import recorded_proxy_shadows
+from ssgi.ssgi_addon.blender.passes import recorded_proxy_shadows, recorded_proxy_sides
 one = s.predictor.inner.meta["dataset"]["settings"]["eevee"]["one_render"]
-old = {"dataset": {"settings": {"eevee": {"one_render": {k: v for k, v in one.items() if k != "emitter_proxy_shadows"}}}}}
+old = {"dataset": {"settings": {"eevee": {"one_render": {k: v for k, v in one.items()
+                                                         if k not in ("emitter_proxy_shadows", "emitter_proxy_sides")}}}}}
 print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": sorted(r["groups"]),
                             "proxy_shadows": [s.proxy_shadows, recorded_proxy_shadows(old), recorded_proxy_shadows({})],
+                            "proxy_sides": [s.proxy_sides, recorded_proxy_sides(old), recorded_proxy_sides({})],
                             "finite": bool(np.isfinite(r["prediction"]).all()), "mean": float(r["prediction"].mean()),
                             "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi]}))
 '''
@@ -167,6 +184,7 @@ def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders
     one = m["settings"]["eevee"]["one_render"]
     assert one["kind"] == "local" and one["raytracing"] is False and one["emitter_proxies"] is True, one
     assert one["emitter_proxy_shadows"] is False, one  # recorded: the node renders the model's frames so
+    assert one["emitter_proxy_sides"] == "open", one  # (and only the sides of the panel facing open space)
     held = {g["name"] for g in m["channel_spec"] if "channels" in g}
     assert {"eevee_local", "rest", "gloss"} <= held and not held & {"world", "direct_soft", "emit_direct"}, held
     # the withheld frames are scored against EEVEE's own render too, and the fitted image beats it there
@@ -180,3 +198,5 @@ def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders
     assert not set(res["groups"]) & {"direct", "world", "direct_soft", "emit_direct", "eevee"}, res["groups"]
     assert res["finite"] and res["mean"] > 0.01 and res["rt_after"] == [True, True], res
     assert res["proxy_shadows"] == [False, True, None], res["proxy_shadows"]
+    # older bakes recorded no sides and had a proxy on both: the node renders their frames so
+    assert res["proxy_sides"] == ["open", "both", None], res["proxy_sides"]
