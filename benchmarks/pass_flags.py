@@ -14,7 +14,8 @@ surface writes, with the emitter proxies (direct_light.emitter_proxies) casting 
 (session 21; ``one_open_proxies``: unshadowed, only on the sides facing open space, the default since
 session 23). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
 with ray tracing and fast GI off as NAME_no_gi. ``--frame`` / ``--samples``: the frame and the EEVEE samples of
-every render (default: frame 1, the file's samples). Prints each render's seconds, the minimum and the median;
+every render (default: frame 1, the file's samples). Prints a yardstick of the machine's speed first
+(``machine_speed``, also in the JSON as "machine"), then each render's seconds, the minimum and the median;
 machine-noisy, so quote ratios from one run:
 
     .venv/bin/python benchmarks/pass_flags.py --scenes SHOTS --names cornell_emissive room --frame 25 \
@@ -78,6 +79,22 @@ def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) 
         return time.perf_counter() - t
 
 
+def machine_speed() -> dict:
+    """A yardstick of the machine's speed, to tell sessions apart (session 23: EEVEE rendered 2.5-3x slower than in
+    session 21 on the same benchmark): the seconds of a pure-Python loop of 10^7 additions (best of 3; 0.95 s on
+    session 23's machine) and the load average."""
+    best = float("inf")
+    for _ in range(3):
+        t = time.perf_counter()
+        s = 0
+        for i in range(10 ** 7):
+            s += i
+        best = min(best, time.perf_counter() - t)
+    with open("/proc/loadavg") as f:
+        load = f.read().split()[:3]
+    return {"python_loop_1e7_s": round(best, 3), "loadavg": load}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenes", required=True, help="folder of benchmarks/artist_scenes.py's .blend files")
@@ -99,7 +116,8 @@ def main(argv=None) -> int:
         if k not in every:
             ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
     chosen = {k: every[k] for k in (a.configs or [*CONFIGS, NO_GI, *(f"{k}_no_gi" for k in GI_OFF_SETS)])}
-    res: dict = {}
+    res: dict = {"machine": machine_speed()}
+    print("machine:", res["machine"], flush=True)
     for name in a.names:
         bpy.ops.wm.open_mainfile(filepath=f"{a.scenes}/{name}.blend")
         sc = bpy.context.scene
