@@ -244,7 +244,8 @@ _PROBES = ((0.0, 0.0), (-0.45, -0.45), (0.45, -0.45), (-0.45, 0.45), (0.45, 0.45
 
 def open_sides(scene, o) -> list[bool]:
     """[front (+Z), back (-Z)]: whether each side of the planar emitter ``o`` faces open space, False where rays from
-    its centre and near its four corners (``_PROBES``) all hit a surface within ``BLOCKED_GAP`` of its larger side
+    its centre and near its four corners (``_PROBES``) all hit a surface other than the emitter itself
+    (``_hits_other``) within ``BLOCKED_GAP`` of its larger side
     (``Scene.ray_cast`` on the evaluated depsgraph, so the surfaces at the scene's current frame)."""
     from mathutils import Vector
 
@@ -261,15 +262,31 @@ def open_sides(scene, o) -> list[bool]:
     out = []
     for sign in (1.0, -1.0):
         ray = n * sign
-        eps = 1e-4 * max(d.x, d.y)  # start off the emitter's own plane
         blocked = True
         for u, v in _PROBES:
-            hit, loc, *_ = scene.ray_cast(dg, c + ax * u + ay * v + ray * eps, ray, distance=gap)
-            if not hit:
+            if not _hits_other(scene, dg, o, c + ax * u + ay * v, ray, gap):
                 blocked = False
                 break
         out.append(not blocked)
     return out
+
+
+def _hits_other(scene, dg, o, origin, ray, distance: float) -> bool:
+    """Whether a ray from ``origin`` hits a surface other than the emitter ``o`` itself within ``distance`` (an
+    emitter with some thickness, or whose origin is off its faces, is stepped through)."""
+    eps = 1e-6 + 1e-4 * distance
+    left = distance
+    for _ in range(8):
+        hit, loc, _n, _i, obj, _m = scene.ray_cast(dg, origin, ray, distance=left)
+        if not hit:
+            return False
+        if getattr(obj, "original", obj) != o:
+            return True
+        step = (loc - origin).length + eps
+        origin, left = loc + ray * eps, left - step
+        if left <= 0:
+            return False
+    return True
 
 
 @contextlib.contextmanager

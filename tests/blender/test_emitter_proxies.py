@@ -55,6 +55,14 @@ bpy.context.view_layer.update()
 res["open_sides_lowered"] = direct_light.open_sides(sc, bpy.data.objects["emissive_panel"])
 bpy.data.objects["emissive_panel"].location.z += 0.3
 bpy.context.view_layer.update()
+# with a little thickness towards the room (still planar) its own faces do not close its front
+sol = bpy.data.objects["emissive_panel"].modifiers.new("thick", "SOLIDIFY")
+sol.thickness, sol.offset = 0.0004, 1.0
+bpy.context.view_layer.update()
+res["thick"] = [[o.name for o, *_ in direct_light.planar_emitters(sc)],
+                direct_light.open_sides(sc, bpy.data.objects["emissive_panel"])]
+bpy.data.objects["emissive_panel"].modifiers.remove(sol)
+bpy.context.view_layer.update()
 g = passes.render_gbuffer(sc, ("albedo", "rest"), samples=4, rest_samples=4)
 ref = passes.render_cycles(sc, 64, seed=3, denoise=True, groups=("ref", "ref_diffuse"))
 cyc_rest = ref["ref"] - ref["ref_diffuse"]
@@ -85,6 +93,7 @@ def test_the_rest_render_lights_what_a_planar_emitter_lights_and_leaves_the_scen
     assert res["open_sides"] == [True, False] and res["open_sides_lowered"] == [True, True], res
     assert [round(v) for v in res["open_proxies"][0]] == [0, 0, -1] and len(res["open_proxies"]) == 1, res
     assert res["left_behind_open"] == [0, 0], res
+    assert res["thick"] == [["emissive_panel"], [True, False]], res["thick"]
     b = res["ball"]
     # the mirror ball: brighter with the proxies, and closer to Cycles' non-diffuse light there
     assert b["proxied"] > 1.5 * b["plain"], b
