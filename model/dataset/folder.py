@@ -147,7 +147,10 @@ def check_compatible(manifest: dict, settings: dict, where) -> None:
             if (k in settings or k in old)
             and json.dumps(old.get(k), sort_keys=True) != json.dumps(settings.get(k), sort_keys=True)]
     # and the one render of a one-render bake (its GI, its emitter proxies' shadows and sides: the input it holds)
-    one_old, one_new = ((s.get("eevee") or {}).get("one_render") for s in (old, settings))
+    # (keys set to None, such as a GI-on one render's proxy settings, count as absent: bakes from before a key was
+    # added resume)
+    one_old, one_new = ({k: v for k, v in ((s.get("eevee") or {}).get("one_render") or {}).items() if v is not None}
+                        or None for s in (old, settings))
     if (one_old or one_new) and json.dumps(one_old, sort_keys=True) != json.dumps(one_new, sort_keys=True):
         diff.append(f"eevee.one_render={one_old!r} (not {one_new!r})")
     if diff:
