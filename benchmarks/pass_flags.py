@@ -67,7 +67,7 @@ def optional_pass_flags(view_layer) -> list[str]:
 
 def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) -> float:
     """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
-    with ``proxies`` not None the emitter proxies ((their shadows on / off, which sides)) in the scene during it."""
+    with ``proxies`` not None the emitter proxies (their shadows on / off, which sides) in the scene during it."""
     from ssgi.ssgi_addon.blender import direct_light
     vl = scene.view_layers[0]
     for f in optional_pass_flags(vl):
@@ -81,7 +81,7 @@ def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) 
 
 def machine_speed() -> dict:
     """A yardstick of the machine's speed, to tell sessions apart (session 23: EEVEE rendered 2.5-3x slower than in
-    session 21 on the same benchmark): the seconds of a pure-Python loop of 10^7 additions (best of 3; 0.95 s on
+    session 21 on the same benchmark): the seconds of a pure-Python loop of 10^7 additions (best of 3; 0.51-0.61 s on
     session 23's machine) and the load average."""
     best = float("inf")
     for _ in range(3):

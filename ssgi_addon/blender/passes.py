@@ -57,24 +57,35 @@ ONE_RENDER_MODES: dict[str, tuple[bool, bool, bool]] = {"eevee_diffuse": (True, 
                                                         "eevee_local": (False, True, PROXY_SHADOWS_LOCAL)}
 
 
+def _recorded_proxies(meta: dict) -> dict | None:
+    """The bake manifest's ``eevee.one_render`` settings from a model's checkpoint data, None unless that one render
+    had emitter proxies."""
+    one = (((meta or {}).get("dataset") or {}).get("settings") or {}).get("eevee", {}).get("one_render") or {}
+    return one if one.get("emitter_proxies") else None
+
+
 def recorded_proxy_shadows(meta: dict) -> bool | None:
     """Whether the emitter proxies of the one render a model was trained on cast shadows, from its checkpoint's
     data (the bake manifest's ``eevee.one_render``): None for a model not trained on a one render with proxies.
     Models baked before the setting was recorded had shadowed proxies."""
-    one = (((meta or {}).get("dataset") or {}).get("settings") or {}).get("eevee", {}).get("one_render") or {}
-    if not one.get("emitter_proxies"):
-        return None
-    return bool(one.get("emitter_proxy_shadows", True))
+    one = _recorded_proxies(meta)
+    return None if one is None else bool(one.get("emitter_proxy_shadows", True))
 
 
 def recorded_proxy_sides(meta: dict) -> str | None:
     """Which sides of the planar emitters got a proxy in the one render a model was trained on ("open" / "both",
     ``direct_light.emitter_proxies``), from its checkpoint's data; None for a model not trained on a one render with
     proxies. Models baked before the setting was recorded had a proxy on both sides."""
-    one = (((meta or {}).get("dataset") or {}).get("settings") or {}).get("eevee", {}).get("one_render") or {}
-    if not one.get("emitter_proxies"):
-        return None
-    return str(one.get("emitter_proxy_sides", "both"))
+    one = _recorded_proxies(meta)
+    return None if one is None else str(one.get("emitter_proxy_sides", "both"))
+
+
+def recorded_proxy_options(meta: dict) -> dict:
+    """The ``render_gbuffer`` keywords that render a model's frames with the emitter proxies its bake had
+    (``proxy_shadows``, ``proxy_sides``); {} for a model not trained on a one render with proxies."""
+    if _recorded_proxies(meta) is None:
+        return {}
+    return {"proxy_shadows": recorded_proxy_shadows(meta), "proxy_sides": recorded_proxy_sides(meta)}
 
 
 # groups only the artist-settings render gives, whatever the samples: its Glossy Color pass (gloss: a shot's

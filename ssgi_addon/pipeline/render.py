@@ -139,10 +139,10 @@ class RenderSession:
                             f"SSGI renders write image files: choose an image format in Output Properties")
         self.model_path = ssgi_node.resolve_model(scene, model)
         self.predictor = predictor if predictor is not None else load_model(self.model_path, runtime, device)
-        # how the emitter proxies of the model's one render were made (their shadows): the frame renders them so
-        from ..blender.passes import recorded_proxy_shadows, recorded_proxy_sides
-        self.proxy_shadows = recorded_proxy_shadows(getattr(self.predictor, "meta", None) or {})
-        self.proxy_sides = recorded_proxy_sides(getattr(self.predictor, "meta", None) or {})  # (and their sides)
+        # how the emitter proxies of the model's one render were made (their shadows, their sides): the frame renders
+        # them so
+        from ..blender.passes import recorded_proxy_options
+        self.proxy_options = recorded_proxy_options(getattr(self.predictor, "meta", None) or {})
         # the network runs at the working resolution (model/infer/workres.py; the node's setting by default)
         from ...model.infer.workres import WorkingResolution, parse_setting
         self.working_res = ssgi_node.resolve_working_res(scene, working_res)
@@ -207,14 +207,22 @@ class RenderSession:
         self.cancelled = False
         self.results: list[dict] = []
 
+    @property
+    def proxy_shadows(self) -> bool | None:
+        """Whether the frames' emitter proxies cast shadows, as the model's bake recorded (None: no proxies)."""
+        return self.proxy_options.get("proxy_shadows")
+
+    @property
+    def proxy_sides(self) -> str | None:
+        """Which sides of an emitter get a proxy in the frames, as the model's bake recorded (None: no proxies)."""
+        return self.proxy_options.get("proxy_sides")
+
     def _passes(self) -> dict:
         """The current frame's passes; called inside ``preserved``."""
         from ..blender import passes
 
-        recorded = ({} if self.proxy_shadows is None else {"proxy_shadows": self.proxy_shadows}) \
-            | ({} if self.proxy_sides is None else {"proxy_sides": self.proxy_sides})
         groups = passes.render_gbuffer(self.scene, self.groups, samples=self.samples, rest_samples=self.samples,
-                                       **(recorded | self.pass_options))
+                                       **(self.proxy_options | self.pass_options))
         missing = [g for g in self.groups if g not in groups]
         if missing:
             raise UserError(f"the pass render returned no {', '.join(missing)} for scene {self.scene.name!r}")

@@ -229,11 +229,10 @@ class ReportRun:
         shadowed or not, on the sides, as the models' bakes recorded; models that disagree get the defaults)."""
         ones = [p for _, p in self._model_keys.values() if _one_render(p)]
         want = tuple(dict.fromkeys(g for p in ones for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal", "rest")))
-        rec = {passes.recorded_proxy_shadows(getattr(p, "meta", None) or {}) for p in ones} - {None}
-        sides = {passes.recorded_proxy_sides(getattr(p, "meta", None) or {}) for p in ones} - {None}
-        return passes.render_gbuffer(scene, want, samples=samples, rest_samples=samples,
-                                     **({"proxy_shadows": rec.pop()} if len(rec) == 1 else {}),
-                                     **({"proxy_sides": sides.pop()} if len(sides) == 1 else {}))
+        recorded = [passes.recorded_proxy_options(getattr(p, "meta", None) or {}) for p in ones]
+        agreed = {k: vs.pop() for k in ("proxy_shadows", "proxy_sides")
+                  if len(vs := {r[k] for r in recorded if k in r}) == 1}
+        return passes.render_gbuffer(scene, want, samples=samples, rest_samples=samples, **agreed)
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
