@@ -9,7 +9,9 @@ For each artist scene (benchmarks/artist_scenes.py) at --size, after an untimed 
   EXR, prediction, composition, the composite render; nothing written), with ``passes.last_timings`` giving each
   render's seconds: world, direct_soft, emit_direct (Cycles; only with emitters), raster (the direct-only
   G-buffer), rest (the artist-settings render);
-and prints a markdown table of seconds per render and the frame / EEVEE GI ratio. With --refs (a dataset
+and prints a markdown table of seconds per render and the frame / EEVEE GI ratio, in wall-clock seconds and in the
+process's CPU seconds (``cpu_s``; the JSON keeps each round's, and each frame's ratio to the EEVEE GI render made just
+before it: on a shared machine the paired CPU ratio is the steadiest number, docs/one_render.md session 24). With --refs (a dataset
 folder holding the scenes' Cycles references at this size, e.g. the report's /work/reports/artist/data) every
 variant's SSGI image is scored (model/metrics.score over the geometry mask of the stored sample, as the report
 scores), and the groups of each variant are compared with the first variant's (PSNR, max |difference|).
@@ -36,6 +38,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import resource
 import subprocess
 import sys
 import time
@@ -66,9 +69,17 @@ RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround") 
 WARM_SIZE = (64, 36)
 
 
-def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float]:
-    """EEVEE GI at the scene's samples: (image, seconds). ``plain``: with every view-layer pass but Combined off
-    (the artist's own render, which writes none of the passes SSGI asks for), put back afterwards."""
+def cpu_s() -> float:
+    """CPU seconds of this process so far, all threads: EEVEE's software GL (llvmpipe), the network and the
+    compositor run inside it, so the CPU seconds of a render are its work whatever else the machine runs at the
+    time, where its wall-clock seconds on this shared 2-core machine scatter by 15-40 % (session 24)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float, float]:
+    """EEVEE GI at the scene's samples: (image, seconds, CPU seconds). ``plain``: with every view-layer pass but
+    Combined off (the artist's own render, which writes none of the passes SSGI asks for), put back afterwards."""
     from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
     samples = int(scene.eevee.taa_render_samples)
     vl = scene.view_layers[0]
@@ -78,9 +89,9 @@ def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float]:
         try:
             for f in flags:
                 setattr(vl, f, False)
-            t = time.perf_counter()
+            t, c = time.perf_counter(), cpu_s()
             img = render_eevee_gi(scene, "default", samples)
-            return img, time.perf_counter() - t
+            return img, time.perf_counter() - t, cpu_s() - c
         finally:
             for f, v in saved.items():
                 setattr(vl, f, v)
@@ -91,9 +102,10 @@ def ssgi_frame(scene, model, options: dict) -> dict:
     options = dict(options)
     samples = options.pop("samples", None)
     s = RenderSession(scene, model=model, write=False, keep_groups=True, pass_options=options, samples=samples)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), cpu_s()
     info = s.run()["per_frame"][0]
     info["t_wall"] = time.perf_counter() - t
+    info["cpu_s"] = cpu_s() - c
     res = s.results[0]
     info["groups"], info["prediction"] = res["groups"], res["prediction"]
     return info
@@ -143,19 +155,26 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
     row = dict(scene=name, size=f"{size[0]}x{size[1]}", samples=int(scene.eevee.taa_render_samples), variants={})
     # with repeats > 1 EEVEE GI and each variant's frame alternate, and the medians are kept: on a shared machine
     # one render can take twice another's time (docs/pass_cost.md)
-    gi_times, plain_times, frames = [], [], {v: [] for v in variants}
+    gi_times, plain_times, gi_cpu, plain_cpu, frames = [], [], [], [], {v: [] for v in variants}
     for _ in range(max(1, repeats)):
-        img, t = eevee_gi(scene)
+        img, t, c = eevee_gi(scene)
         gi_times.append(t)
+        gi_cpu.append(c)
         if plain:
-            plain_times.append(eevee_gi(scene, plain=True)[1])
+            _img, t, c = eevee_gi(scene, plain=True)
+            plain_times.append(t)
+            plain_cpu.append(c)
         for v in variants:
             frames[v].append(ssgi_frame(scene, model, VARIANTS[v]))
     row["eevee_gi_s"] = float(np.median(gi_times))
     row["eevee_gi_all_s"] = [round(t, 2) for t in gi_times]
+    row["eevee_gi_cpu_s"] = round(float(np.median(gi_cpu)), 2)
+    row["eevee_gi_all_cpu_s"] = [round(c, 2) for c in gi_cpu]
     if plain:  # EEVEE GI writing only Combined, as the artist's own render
         row["eevee_gi_plain_s"] = round(float(np.median(plain_times)), 2)
         row["eevee_gi_plain_all_s"] = [round(t, 2) for t in plain_times]
+        row["eevee_gi_plain_cpu_s"] = round(float(np.median(plain_cpu)), 2)
+        row["eevee_gi_plain_all_cpu_s"] = [round(c, 2) for c in plain_cpu]
     first = None
     for v in variants:
         runs = sorted(frames[v], key=lambda i: i["t_total"])
@@ -168,8 +187,16 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
         r["frame_all_s"] = [round(i["t_total"], 2) for i in frames[v]]
         # each frame against the EEVEE GI render made just before it
         r["paired_ratios"] = [round(i["t_total"] / t, 3) for i, t in zip(frames[v], gi_times)]
+        # the same in CPU seconds (cpu_s): medians, and each frame against the EEVEE GI render made just before it
+        cpus = [i["cpu_s"] for i in frames[v]]
+        r["frame_cpu_s"] = round(float(np.median(cpus)), 2)
+        r["frame_all_cpu_s"] = [round(c, 2) for c in cpus]
+        r["cpu_ratio_to_eevee_gi"] = round(r["frame_cpu_s"] / row["eevee_gi_cpu_s"], 3)
+        r["paired_cpu_ratios"] = [round(c / g, 3) for c, g in zip(cpus, gi_cpu)]
         if plain:
             r["ratio_to_eevee_gi_plain"] = round(info["t_total"] / row["eevee_gi_plain_s"], 2)
+            r["cpu_ratio_to_eevee_gi_plain"] = round(r["frame_cpu_s"] / row["eevee_gi_plain_cpu_s"], 3)
+            r["paired_cpu_ratios_plain"] = [round(c / g, 3) for c, g in zip(cpus, plain_cpu)]
         if name in refs:
             ref, mask = refs[name]
             sc = metrics.score(info["prediction"], ref, mask)
@@ -181,8 +208,10 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
             r["vs_first"] = {g: {k: round(x, 4) if math.isfinite(x) else "inf" for k, x in _cmp(groups[g], first[g]).items()}
                              for g in groups if g in first}
         row["variants"][v] = r
-        print(f"{name} {v}: frame {r['frame_s']} s ({r['ratio_to_eevee_gi']}x EEVEE GI {row['eevee_gi_s']:.2f} s) "
-              f"{r['renders']} {r.get('score', '')}", file=sys.stderr, flush=True)
+        print(f"{name} {v}: frame {r['frame_s']} s ({r['ratio_to_eevee_gi']}x EEVEE GI {row['eevee_gi_s']:.2f} s; "
+              f"CPU {r['frame_cpu_s']} s, {r['cpu_ratio_to_eevee_gi']}x"
+              + (f", {r['cpu_ratio_to_eevee_gi_plain']}x plain" if plain else "")
+              + f") {r['renders']} {r.get('score', '')}", file=sys.stderr, flush=True)
     row["eevee_gi_s"] = round(row["eevee_gi_s"], 2)
     if name in refs:
         ref, mask = refs[name]
@@ -252,7 +281,7 @@ def world_linearity(folder) -> dict:
 
 def table(rows, variants) -> str:
     head = ("| scene | size | variant | " + " | ".join(RENDERS) + " | stand-in + predict + composite | whole frame "
-            "| EEVEE GI | frame / GI | PSNR |")
+            "| EEVEE GI | frame / GI | frame / GI, CPU s | frame / plain GI, CPU s | PSNR |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for row in rows:
         for v in variants:
@@ -262,6 +291,8 @@ def table(rows, variants) -> str:
             lines.append(f"| {row['scene']} | {row['size']} | {v} | " + " | ".join(
                 f"{r['renders'][k]:.2f}" if r["renders"][k] else "-" for k in RENDERS)
                 + f" | {rest:.2f} | {r['frame_s']:.2f} | {row['eevee_gi_s']:.2f} | {r['ratio_to_eevee_gi']:.2f} | "
+                + f"{r['cpu_ratio_to_eevee_gi']:.3f} | " + (f"{r['cpu_ratio_to_eevee_gi_plain']:.3f}"
+                                                           if "cpu_ratio_to_eevee_gi_plain" in r else "-") + " | "
                 + (f"{ps:.2f}" if ps is not None else "") + " |")
     return "\n".join(lines)
 

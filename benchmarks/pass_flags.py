@@ -4,6 +4,9 @@ on, the artist scene's own samples), against the same render writing only Combin
     .venv/bin/python benchmarks/pass_flags.py --scenes /work/data/artist_scenes --names cornell_emissive exterior \\
         [--size 960x540] [--repeats 2] [--json out.json]
 
+Each render's wall-clock seconds are printed and kept, and its CPU seconds beside them (``cpu_s``, the JSON's
+"cpu_s": steadier on a shared machine, session 24).
+
 The scenes are benchmarks/artist_scenes.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
 render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--repeats`` rounds of one render per
 configuration in ``CONFIGS`` (Combined only; Combined + one pass; the five passes a one-render model reads; the five +
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import sys
 import time
 
@@ -65,6 +69,16 @@ def optional_pass_flags(view_layer) -> list[str]:
             and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
 
 
+def cpu_s() -> float:
+    """CPU seconds of this process so far, all threads (EEVEE's software GL renders inside it): a render's work,
+    steadier than its wall-clock seconds on a shared machine (session 24)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+CPU: dict[str, dict[str, list[float]]] = {}  # {scene: {configuration: CPU seconds of each render}} (main fills it)
+
+
 def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) -> float:
     """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
     with ``proxies`` not None the emitter proxies (their shadows on / off, which sides) in the scene during it."""
@@ -74,8 +88,9 @@ def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) 
         setattr(vl, f, f in on)
     scene.eevee.use_raytracing = scene.eevee.use_fast_gi = gi
     with direct_light.emitter_proxies(scene, *proxies) if proxies is not None else contextlib.nullcontext():
-        t = time.perf_counter()
+        t, c = time.perf_counter(), cpu_s()
         bpy.ops.render.render(write_still=False)
+        render.last_cpu = cpu_s() - c
         return time.perf_counter() - t
 
 
@@ -134,9 +149,13 @@ def main(argv=None) -> int:
         for _ in range(a.repeats):
             for k, (on, gi, prox) in chosen.items():
                 res.setdefault(name, {}).setdefault(k, []).append(render(sc, on, gi=gi, proxies=prox))
+                CPU.setdefault(name, {}).setdefault(k, []).append(round(render.last_cpu, 2))
         for k, v in res[name].items():
+            c = CPU[name][k]
             print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}"
-                  f"  median {sorted(v)[len(v) // 2]:6.2f}", flush=True)
+                  f"  median {sorted(v)[len(v) // 2]:6.2f}   CPU s " + " ".join(f"{x:6.2f}" for x in c)
+                  + f"  median {sorted(c)[len(c) // 2]:6.2f}", flush=True)
+    res["cpu_s"] = CPU
     if a.json:
         with open(a.json, "w") as f:
             json.dump(res, f, indent=1)

@@ -246,6 +246,14 @@ def _point_sampled(scene):
         scene.cycles.filter_width = saved
 
 
+# the codec of the multilayer EXR each render is read back through: none. The file lives only for its save and read
+# (or, kept, for the compositor's stand-in, keep_render_file): at 960x540 with a one-render frame's seven passes,
+# ZIP took 0.17 s to save and 0.09 s to read, no compression 0.04 s and 0.04 s (42 MB instead of 1.7; session 24,
+# docs/one_render.md). A 16-bit file would be smaller still but the Depth pass is 32-bit float (only 0.01 % of its
+# values survive a round to half), so the depth stays 32.
+SCRATCH_EXR_CODEC = "NONE"
+
+
 @contextlib.contextmanager
 def _exr_output(scene):
     r = scene.render
@@ -255,7 +263,7 @@ def _exr_output(scene):
         ims.media_type = "MULTI_LAYER_IMAGE"
         ims.file_format = "OPEN_EXR_MULTILAYER"
         ims.color_depth = "32"
-        ims.exr_codec = "ZIP"
+        ims.exr_codec = SCRATCH_EXR_CODEC
         r.use_compositing = False
         r.use_sequencer = False
         yield
@@ -305,15 +313,49 @@ def remove_stale_temp_files(folder=None, min_age_s: float = STALE_TEMP_S) -> lis
                        min_age_s=min_age_s)
 
 
+class KeptRender:
+    """The read-back file of the last render made inside ``keep_render_file`` (None before one)."""
+    path: str | None = None
+
+    def discard(self) -> None:
+        if self.path is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)
+            self.path = None
+
+
+_kept: list[KeptRender] = []
+
+
+@contextlib.contextmanager
+def keep_render_file():
+    """Inside, the last render's read-back EXR (all its passes) is left on disk, its path in the yielded
+    ``KeptRender`` (an earlier render's file is removed when the next one is made): the render path loads it as the
+    compositor's stand-in for the Render Layers node instead of saving the same Render Result a second time (0.17 s
+    at 960x540; session 24). ``render_gbuffer`` makes the artist-settings render last, so the file is that render's.
+    The caller removes the file; on an exception it is removed here. As every read-back file, it is made only after
+    its render returns, named by process (docs/hard_cases.md)."""
+    kept = KeptRender()
+    _kept.append(kept)
+    try:
+        yield kept
+    except BaseException:
+        kept.discard()
+        raise
+    finally:
+        _kept.pop()
+
+
 def _render(scene, composite: bool = False) -> dict[str, dict[str, np.ndarray]]:
     """Render ``scene`` and read every pass back; with ``composite`` the scene's compositor runs too and its
-    output is the pass "Composite"."""
+    output is the pass "Composite". Inside ``keep_render_file`` the read-back file stays."""
     global _swept
     _check_camera(scene)
     if not _swept:
         _swept = True
         remove_stale_temp_files()
     path = None
+    kept = _kept[-1] if _kept else None
     try:
         with _exr_output(scene):
             scene.render.use_compositing = composite
@@ -329,7 +371,11 @@ def _render(scene, composite: bool = False) -> dict[str, dict[str, np.ndarray]]:
                 img.save_render(path, scene=scene)
                 # A failed write (a full disk) does not raise: Blender logs "IMB_exr_write_channels: Failed to
                 # write pixel data" and leaves the file empty or cut short, which the read finds.
-                return read_multilayer(path)
+                out = read_multilayer(path)
+                if kept is not None:
+                    kept.discard()
+                    kept.path, path = path, None
+                return out
             except RuntimeError as e:
                 raise OSError(f"{path}: Blender could not save the render in the temporary folder "
                               f"{tempfile.gettempdir()} (is the disk full? Blender's log above says why): {e}") from None

@@ -265,14 +265,19 @@ class RenderSession:
         try:
             with preserved(scene):
                 t0 = time.perf_counter()
-                groups = self._passes()
+                # the compositor's stand-in for the Render Layers node: the last pass render's own read-back file,
+                # kept (passes.keep_render_file), not the Render Result saved a second time
+                with passes.keep_render_file() as kept:
+                    groups = self._passes()
+                exr = kept.path
                 info["t_pass_renders"] = dict(passes.last_timings)
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()
-                # made after the pass render (not during it), named by process: see docs/hard_cases.md
-                exr = str(files.scratch("ssgi-passes", ".exr"))
-                save_multilayer(scene, exr)
+                if exr is None:  # (every pass render leaves one; kept for a path that would render none)
+                    # made after the pass render (not during it), named by process: see docs/hard_cases.md
+                    exr = str(files.scratch("ssgi-passes", ".exr"))
+                    save_multilayer(scene, exr)
                 info["t_standin"] = time.perf_counter() - t0
             t0 = time.perf_counter()
             pred = self._predict(groups)

@@ -140,3 +140,47 @@ def test_the_rest_render_culls_no_lamp_and_puts_the_artists_threshold_back():
     assert out["after"] == out["before"], out                                    # put back
     assert out["diff"] <= 1e-5, out                                              # lit with no lamp culled
     assert out["own"] < 0.95 * out["rest"], out                                  # culling matters in this scene
+
+
+KEEP_CODE = TINY_SKY_SCENE + r'''
+import glob, os, tempfile
+mine = lambda: sorted(glob.glob(os.path.join(tempfile.gettempdir(), f".ssgi-*.{os.getpid()}.tmp")))
+res = {}
+with passes.keep_render_file() as kept:
+    g = passes.render_gbuffer(sc, ("albedo", "normal", "depth", "direct", "rest"), samples=2, rest_samples=2)
+    res["renders"] = sorted(passes.last_timings)
+    res["inside"] = mine()
+res["kept"] = kept.path
+res["after"] = mine()
+import OpenEXR
+with OpenEXR.File(kept.path) as f:
+    res["compression"] = str(f.header(0)["compression"])
+back = passes.read_multilayer(kept.path)
+res["albedo_vs_file"] = float(np.abs(np.stack([back["Diffuse Color"][c] for c in "RGB"], -1) - g["albedo"]).max())
+os.unlink(kept.path)
+try:
+    with passes.keep_render_file() as kept2:
+        passes.render_gbuffer(sc, ("albedo", "rest"), samples=1, rest_samples=1)
+        res["second"] = kept2.path
+        raise KeyError("stop")
+except KeyError:
+    pass
+res["after_error"] = mine()
+passes.render_gbuffer(sc, ("albedo", "rest"), samples=1, rest_samples=1)
+res["outside"] = mine()
+print("RESULT", json.dumps(res))
+'''
+
+
+def test_the_render_path_keeps_the_last_renders_file_for_the_compositor_and_no_other():
+    """keep_render_file (the compositor's stand-in, session 24): of a call that renders twice (direct-only, then
+    the artist-settings render) exactly one read-back file is left, the last render's (its albedo is the group's),
+    uncompressed (passes.SCRATCH_EXR_CODEC); an exception inside removes it; outside, no file stays."""
+    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + KEEP_CODE, timeout=600)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert res["renders"] == ["raster", "rest"], res
+    assert res["inside"] == res["after"] == [res["kept"]], res  # one file: the first render's was removed
+    assert "ssgi-render-" in res["kept"], res
+    assert res["albedo_vs_file"] == 0.0, res  # the artist-settings render's passes (albedo comes from it)
+    assert "NO_COMPRESSION" in res["compression"], res
+    assert res["second"] and res["after_error"] == [] and res["outside"] == [], res
