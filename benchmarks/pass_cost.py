@@ -11,7 +11,9 @@ For each artist scene (benchmarks/artist_scenes.py) at --size, after an untimed 
   G-buffer), rest (the artist-settings render);
 and prints a markdown table of seconds per render and the frame / EEVEE GI ratio, in wall-clock seconds and in the
 process's CPU seconds (``cpu_s``; the JSON keeps each round's, and each frame's ratio to the EEVEE GI render made just
-before it: on a shared machine the paired CPU ratio is the steadiest number, docs/one_render.md session 24). With --refs (a dataset
+before it: on a shared machine the paired CPU ratio is the steadiest number, docs/one_render.md session 24).
+With --plain-gi in a scene where nothing casts a shadow (passes.casts_no_shadow), whose SSGI renders skip EEVEE's
+shadows, the plain EEVEE GI render is also timed with its shadows off (the same image): the frame at equal savings. With --refs (a dataset
 folder holding the scenes' Cycles references at this size, e.g. the report's /work/reports/artist/data) every
 variant's SSGI image is scored (model/metrics.score over the geometry mask of the stored sample, as the report
 scores), and the groups of each variant are compared with the first variant's (PSNR, max |difference|).
@@ -77,9 +79,12 @@ def cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float, float]:
+def eevee_gi(scene, plain: bool = False, skip_shadows: bool = False) -> tuple[np.ndarray, float, float]:
     """EEVEE GI at the scene's samples: (image, seconds, CPU seconds). ``plain``: with every view-layer pass but
-    Combined off (the artist's own render, which writes none of the passes SSGI asks for), put back afterwards."""
+    Combined off (the artist's own render, which writes none of the passes SSGI asks for), put back afterwards.
+    ``skip_shadows``: with EEVEE's shadows off as SSGI's own renders have them where nothing casts a shadow
+    (passes.casts_no_shadow; the same image), so that the frame is also compared with an EEVEE GI render given the
+    same saving."""
     from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
     samples = int(scene.eevee.taa_render_samples)
     vl = scene.view_layers[0]
@@ -89,6 +94,8 @@ def eevee_gi(scene, plain: bool = False) -> tuple[np.ndarray, float, float]:
         try:
             for f in flags:
                 setattr(vl, f, False)
+            if skip_shadows:
+                scene.eevee.use_shadows = False  # (put back by _settings_kept)
             t, c = time.perf_counter(), cpu_s()
             img = render_eevee_gi(scene, "default", samples)
             return img, time.perf_counter() - t, cpu_s() - c
@@ -156,6 +163,10 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
     # with repeats > 1 EEVEE GI and each variant's frame alternate, and the medians are kept: on a shared machine
     # one render can take twice another's time (docs/pass_cost.md)
     gi_times, plain_times, gi_cpu, plain_cpu, frames = [], [], [], [], {v: [] for v in variants}
+    # where nothing casts a shadow SSGI's renders skip EEVEE's shadows (passes.SKIP_UNUSED_SHADOWS): the plain EEVEE GI
+    # render is then also timed so, for a comparison at equal savings
+    noshadow = plain and passes.SKIP_UNUSED_SHADOWS and passes.casts_no_shadow(scene)
+    ns_times, ns_cpu = [], []
     for _ in range(max(1, repeats)):
         img, t, c = eevee_gi(scene)
         gi_times.append(t)
@@ -164,6 +175,10 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
             _img, t, c = eevee_gi(scene, plain=True)
             plain_times.append(t)
             plain_cpu.append(c)
+        if noshadow:
+            _img, t, c = eevee_gi(scene, plain=True, skip_shadows=True)
+            ns_times.append(t)
+            ns_cpu.append(c)
         for v in variants:
             frames[v].append(ssgi_frame(scene, model, VARIANTS[v]))
     row["eevee_gi_s"] = float(np.median(gi_times))
@@ -175,6 +190,11 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
         row["eevee_gi_plain_all_s"] = [round(t, 2) for t in plain_times]
         row["eevee_gi_plain_cpu_s"] = round(float(np.median(plain_cpu)), 2)
         row["eevee_gi_plain_all_cpu_s"] = [round(c, 2) for c in plain_cpu]
+    if noshadow:  # the plain EEVEE GI render with its shadows off too (nothing casts one: the same image)
+        row["eevee_gi_plain_noshadow_s"] = round(float(np.median(ns_times)), 2)
+        row["eevee_gi_plain_noshadow_all_s"] = [round(t, 2) for t in ns_times]
+        row["eevee_gi_plain_noshadow_cpu_s"] = round(float(np.median(ns_cpu)), 2)
+        row["eevee_gi_plain_noshadow_all_cpu_s"] = [round(c, 2) for c in ns_cpu]
     first = None
     for v in variants:
         runs = sorted(frames[v], key=lambda i: i["t_total"])
@@ -197,6 +217,11 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
             r["ratio_to_eevee_gi_plain"] = round(info["t_total"] / row["eevee_gi_plain_s"], 2)
             r["cpu_ratio_to_eevee_gi_plain"] = round(r["frame_cpu_s"] / row["eevee_gi_plain_cpu_s"], 3)
             r["paired_cpu_ratios_plain"] = [round(c / g, 3) for c, g in zip(cpus, plain_cpu)]
+        r["shadows_skipped"] = bool(info.get("shadows_skipped"))
+        if noshadow:
+            r["ratio_to_eevee_gi_plain_noshadow"] = round(info["t_total"] / row["eevee_gi_plain_noshadow_s"], 2)
+            r["cpu_ratio_to_eevee_gi_plain_noshadow"] = round(r["frame_cpu_s"] / row["eevee_gi_plain_noshadow_cpu_s"], 3)
+            r["paired_cpu_ratios_plain_noshadow"] = [round(c / g, 3) for c, g in zip(cpus, ns_cpu)]
         if name in refs:
             ref, mask = refs[name]
             sc = metrics.score(info["prediction"], ref, mask)
@@ -211,6 +236,7 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
         print(f"{name} {v}: frame {r['frame_s']} s ({r['ratio_to_eevee_gi']}x EEVEE GI {row['eevee_gi_s']:.2f} s; "
               f"CPU {r['frame_cpu_s']} s, {r['cpu_ratio_to_eevee_gi']}x"
               + (f", {r['cpu_ratio_to_eevee_gi_plain']}x plain" if plain else "")
+              + (f", {r['cpu_ratio_to_eevee_gi_plain_noshadow']}x plain with its shadows off too" if noshadow else "")
               + f") {r['renders']} {r.get('score', '')}", file=sys.stderr, flush=True)
     row["eevee_gi_s"] = round(row["eevee_gi_s"], 2)
     if name in refs:

@@ -271,6 +271,8 @@ class RenderSession:
                     groups = self._passes()
                 exr = kept.path
                 info["t_pass_renders"] = dict(passes.last_timings)
+                # (the last pass render made without EEVEE's shadows: nothing in it casts one, passes.casts_no_shadow)
+                info["shadows_skipped"] = passes.last_render["shadows_skipped"]
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()

@@ -142,7 +142,8 @@ def render_eevee_gi(scene, preset: str, samples: int) -> np.ndarray:
     passes.no_light_culled(scene)
     for k, v in GI_PRESETS[preset]["settings"].items():
         _set(ee, k, v)
-    p = passes._render(scene)["Combined"]
+    # the scene's own shadow setting, even where nothing casts a shadow: the baseline is EEVEE as the artist renders it
+    p = passes._render(scene, skip_unused_shadows=False)["Combined"]
     return np.stack([p[c] for c in "RGB"], axis=-1).astype(np.float32)
 
 

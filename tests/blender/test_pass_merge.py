@@ -184,3 +184,49 @@ def test_the_render_path_keeps_the_last_renders_file_for_the_compositor_and_no_o
     assert res["albedo_vs_file"] == 0.0, res  # the artist-settings render's passes (albedo comes from it)
     assert "NO_COMPRESSION" in res["compression"], res
     assert res["second"] and res["after_error"] == [] and res["outside"] == [], res
+
+
+SHADOW_CODE = TINY_SKY_SCENE + r'''
+ee = sc.eevee
+res = {"lamps": [o.name for o in sc.objects if o.type == "LIGHT"]}
+res["with_lamp"] = passes.casts_no_shadow(sc)
+for o in sc.objects:
+    if o.type == "LIGHT":
+        o.data.use_shadow = False
+res["lamp_unshadowed"] = passes.casts_no_shadow(sc)           # the gradient sky's sun still may
+sc.world.use_sun_shadow = False
+res["no_sun_shadow"] = passes.casts_no_shadow(sc)
+groups = ("albedo", "normal", "depth", "emission", "rest")
+out = {}
+for skip in (False, True):
+    passes.SKIP_UNUSED_SHADOWS = skip
+    # (no emitter proxies: the render path's rest render stands shadowed area lights in for the tiny panel)
+    out[skip] = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2, proxies=False)
+    res[f"skipped_{skip}"] = passes.last_render["shadows_skipped"]
+    res[f"use_shadows_after_{skip}"] = ee.use_shadows
+res["max_abs"] = {g: float(np.abs(out[True][g] - out[False][g]).max()) for g in groups + ("beauty",)}
+res["mean_beauty"] = float(out[True]["beauty"][..., :3].mean())
+for o in sc.objects:                                          # a lamp that casts a shadow: nothing is skipped
+    if o.type == "LIGHT":
+        o.data.use_shadow = True
+passes.SKIP_UNUSED_SHADOWS = True
+passes.render_gbuffer(sc, ("albedo", "rest"), samples=1, rest_samples=1, proxies=False)
+res["skipped_with_shadowed_lamp"] = passes.last_render["shadows_skipped"]
+print("RESULT", json.dumps(res))
+'''
+
+
+def test_a_render_in_which_nothing_casts_a_shadow_skips_eevees_shadows_and_gives_the_same_image():
+    """passes.casts_no_shadow / SKIP_UNUSED_SHADOWS (session 24): the tiny scene's lamp casts a shadow; unshadowed, the
+    gradient sky's extracted sun still may; with that off nothing can, and the render path's render is made with
+    EEVEE's shadows off: every group and the image equal the shadows-on render's exactly, and the artist's setting
+    is back afterwards. With the lamp's shadow back on, nothing is skipped."""
+    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + SHADOW_CODE, timeout=600)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert res["lamps"], res
+    assert (res["with_lamp"], res["lamp_unshadowed"], res["no_sun_shadow"]) == (False, False, True), res
+    assert (res["skipped_False"], res["skipped_True"]) == (False, True), res
+    assert res["use_shadows_after_False"] is True and res["use_shadows_after_True"] is True, res
+    assert res["mean_beauty"] > 0.01, res
+    assert all(d == 0.0 for d in res["max_abs"].values()), res
+    assert res["skipped_with_shadowed_lamp"] is False, res
