@@ -40,7 +40,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import resource
 import subprocess
 import sys
 import time
@@ -48,7 +47,7 @@ from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import artist_scenes as A  # noqa: E402
-from pass_flags import optional_pass_flags  # noqa: E402
+from pass_flags import cpu_s, optional_pass_flags  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
@@ -71,18 +70,10 @@ RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround") 
 WARM_SIZE = (64, 36)
 
 
-def cpu_s() -> float:
-    """CPU seconds of this process so far, all threads: EEVEE's software GL (llvmpipe), the network and the
-    compositor run inside it, so the CPU seconds of a render are its work whatever else the machine runs at the
-    time, where its wall-clock seconds on this shared 2-core machine scatter by 15-40 % (session 24)."""
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
-
-
 def eevee_gi(scene, plain: bool = False, skip_shadows: bool = False) -> tuple[np.ndarray, float, float]:
     """EEVEE GI at the scene's samples: (image, seconds, CPU seconds). ``plain``: with every view-layer pass but
     Combined off (the artist's own render, which writes none of the passes SSGI asks for), put back afterwards.
-    ``skip_shadows``: with EEVEE's shadows off as SSGI's own renders have them where nothing casts a shadow
+    ``skip_shadows``: with EEVEE's shadows skipped as SSGI's own renders skip them where nothing casts a shadow
     (passes.casts_no_shadow; the same image), so that the frame is also compared with an EEVEE GI render given the
     same saving."""
     from ssgi.ssgi_addon.pipeline.report_run import render_eevee_gi
@@ -94,10 +85,8 @@ def eevee_gi(scene, plain: bool = False, skip_shadows: bool = False) -> tuple[np
         try:
             for f in flags:
                 setattr(vl, f, False)
-            if skip_shadows:
-                scene.eevee.use_shadows = False  # (put back by _settings_kept)
             t, c = time.perf_counter(), cpu_s()
-            img = render_eevee_gi(scene, "default", samples)
+            img = render_eevee_gi(scene, "default", samples, skip_unused_shadows=skip_shadows)
             return img, time.perf_counter() - t, cpu_s() - c
         finally:
             for f, v in saved.items():

@@ -70,17 +70,16 @@ def optional_pass_flags(view_layer) -> list[str]:
 
 
 def cpu_s() -> float:
-    """CPU seconds of this process so far, all threads (EEVEE's software GL renders inside it): a render's work,
-    steadier than its wall-clock seconds on a shared machine (session 24)."""
+    """CPU seconds of this process so far, all threads: EEVEE's software GL (llvmpipe), the network and the
+    compositor run inside it, so the CPU seconds of a render are its work whatever else the machine runs at the
+    time, where its wall-clock seconds on this shared 2-core machine scatter by 15-40 % (session 24). (Also
+    benchmarks/pass_cost.py's.)"""
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
 
 
-CPU: dict[str, dict[str, list[float]]] = {}  # {scene: {configuration: CPU seconds of each render}} (main fills it)
-
-
-def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) -> float:
-    """Seconds of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
+def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) -> tuple[float, float]:
+    """(seconds, CPU seconds) of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
     with ``proxies`` not None the emitter proxies (their shadows on / off, which sides) in the scene during it."""
     from ssgi.ssgi_addon.blender import direct_light
     vl = scene.view_layers[0]
@@ -90,8 +89,7 @@ def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) 
     with direct_light.emitter_proxies(scene, *proxies) if proxies is not None else contextlib.nullcontext():
         t, c = time.perf_counter(), cpu_s()
         bpy.ops.render.render(write_still=False)
-        render.last_cpu = cpu_s() - c
-        return time.perf_counter() - t
+        return time.perf_counter() - t, cpu_s() - c
 
 
 def machine_speed() -> dict:
@@ -132,6 +130,7 @@ def main(argv=None) -> int:
             ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
     chosen = {k: every[k] for k in (a.configs or [*CONFIGS, NO_GI, *(f"{k}_no_gi" for k in GI_OFF_SETS)])}
     res: dict = {"machine": machine_speed()}
+    cpu: dict[str, dict[str, list[float]]] = {}  # {scene: {configuration: CPU seconds of each render}}
     print("machine:", res["machine"], flush=True)
     for name in a.names:
         bpy.ops.wm.open_mainfile(filepath=f"{a.scenes}/{name}.blend")
@@ -148,14 +147,15 @@ def main(argv=None) -> int:
         sc.render.resolution_x, sc.render.resolution_y = a.size
         for _ in range(a.repeats):
             for k, (on, gi, prox) in chosen.items():
-                res.setdefault(name, {}).setdefault(k, []).append(render(sc, on, gi=gi, proxies=prox))
-                CPU.setdefault(name, {}).setdefault(k, []).append(round(render.last_cpu, 2))
+                wall, c = render(sc, on, gi=gi, proxies=prox)
+                res.setdefault(name, {}).setdefault(k, []).append(wall)
+                cpu.setdefault(name, {}).setdefault(k, []).append(round(c, 2))
         for k, v in res[name].items():
-            c = CPU[name][k]
+            c = cpu[name][k]
             print(f"{name} {k:14s} " + " ".join(f"{x:6.2f}" for x in v) + f"  min {min(v):6.2f}"
                   f"  median {sorted(v)[len(v) // 2]:6.2f}   CPU s " + " ".join(f"{x:6.2f}" for x in c)
                   + f"  median {sorted(c)[len(c) // 2]:6.2f}", flush=True)
-    res["cpu_s"] = CPU
+    res["cpu_s"] = cpu
     if a.json:
         with open(a.json, "w") as f:
             json.dump(res, f, indent=1)
