@@ -16,7 +16,10 @@ read), and ``ONE_RENDER_SETS``: the six passes a GI-off one-render frame of a sh
 surface writes, with the emitter proxies (direct_light.emitter_proxies) casting shadows, casting none, or absent
 (session 21; ``one_open_proxies``: unshadowed, only on the sides facing open space, the default since
 session 23). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
-with ray tracing and fast GI off as NAME_no_gi. ``--frame`` / ``--samples``: the frame and the EEVEE samples of
+with ray tracing and fast GI off as NAME_no_gi, and any (either) with EEVEE's shadows off as NAME_no_shadows (what
+the shadow pipeline costs: session 24, the renders SSGI makes where nothing casts a shadow, ``passes.casts_no_shadow``).
+``--filter-size PX``: the film filter of every render (default: the file's; Blender's default is 1.5 px; session 24:
+most of the passes' cost is the film's filter gather). ``--frame`` / ``--samples``: the frame and the EEVEE samples of
 every render (default: frame 1, the file's samples). Prints a yardstick of the machine's speed first
 (``machine_speed``, also in the JSON as "machine"), then each render's seconds, the minimum and the median;
 machine-noisy, so quote ratios from one run:
@@ -78,14 +81,17 @@ def cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None) -> tuple[float, float]:
-    """(seconds, CPU seconds) of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as ``gi``, and
-    with ``proxies`` not None the emitter proxies (their shadows on / off, which sides) in the scene during it."""
+def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None, shadows: bool = True
+           ) -> tuple[float, float]:
+    """(seconds, CPU seconds) of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as
+    ``gi``, EEVEE's shadows as ``shadows``, and with ``proxies`` not None the emitter proxies (their shadows on / off,
+    which sides) in the scene during it."""
     from ssgi.ssgi_addon.blender import direct_light
     vl = scene.view_layers[0]
     for f in optional_pass_flags(vl):
         setattr(vl, f, f in on)
     scene.eevee.use_raytracing = scene.eevee.use_fast_gi = gi
+    scene.eevee.use_shadows = shadows
     with direct_light.emitter_proxies(scene, *proxies) if proxies is not None else contextlib.nullcontext():
         t, c = time.perf_counter(), cpu_s()
         bpy.ops.render.render(write_still=False)
@@ -116,20 +122,23 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--frame", type=int, default=1, help="the frame of every scene (default 1)")
     ap.add_argument("--samples", type=int, default=None, help="EEVEE samples of every render (default: the file's)")
+    ap.add_argument("--filter-size", type=float, default=None,
+                    help="film filter width in px of every render (default: the file's)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--configs", nargs="+", default=None,
                     help=f"only these configurations, in this order each round (default all: "
                          f"{' '.join(CONFIGS)}, each also as NAME_no_gi, and {' '.join(GI_OFF_SETS)} as NAME_no_gi; "
-                         f"on request {' '.join(ONE_RENDER_SETS)}, each as NAME_no_gi)")
+                         f"on request {' '.join(ONE_RENDER_SETS)}, each as NAME_no_gi; any as NAME_no_shadows)")
     a = ap.parse_args(argv)
     every = {**{k: (on, True, None) for k, on in CONFIGS.items()},
              **{f"{k}_no_gi": (on, False, None) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()},
              **{f"{k}_no_gi": (on, False, prox) for k, (on, prox) in ONE_RENDER_SETS.items()}}
+    every |= {f"{k}_no_shadows": v for k, v in every.items()}
     for k in a.configs or ():
         if k not in every:
             ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
     chosen = {k: every[k] for k in (a.configs or [*CONFIGS, NO_GI, *(f"{k}_no_gi" for k in GI_OFF_SETS)])}
-    res: dict = {"machine": machine_speed()}
+    res: dict = {"machine": machine_speed(), "filter_size": a.filter_size}
     cpu: dict[str, dict[str, list[float]]] = {}  # {scene: {configuration: CPU seconds of each render}}
     print("machine:", res["machine"], flush=True)
     for name in a.names:
@@ -139,15 +148,23 @@ def main(argv=None) -> int:
         if a.samples:
             sc.eevee.taa_render_samples = a.samples
         sc.render.engine = "BLENDER_EEVEE"
+        if a.filter_size is not None:
+            sc.render.filter_size = a.filter_size
+        own_shadows = sc.eevee.use_shadows  # (the configurations without _no_shadows keep the file's setting)
         sc.render.resolution_percentage = 100
         sc.render.resolution_x, sc.render.resolution_y = 64, 36
-        render(sc, ONE_PASSES + (VECTOR,))
+        # (untimed: the first render of a pipeline compiles its shaders, 10-30 CPU s at 480x270 on Mesa, session 25: GI on,
+        # GI off, shadows off)
+        render(sc, ONE_PASSES + (VECTOR,), shadows=own_shadows)
+        render(sc, ONE_PASSES, gi=False, shadows=own_shadows)
+        if any(k.endswith("_no_shadows") for k in chosen):
+            render(sc, ONE_PASSES, gi=False, shadows=False)
         for prox in sorted({p for _o, _g, p in chosen.values() if p is not None}):  # (and with the proxies)
-            render(sc, ONE_PASSES, gi=False, proxies=prox)
+            render(sc, ONE_PASSES, gi=False, proxies=prox, shadows=own_shadows)
         sc.render.resolution_x, sc.render.resolution_y = a.size
         for _ in range(a.repeats):
             for k, (on, gi, prox) in chosen.items():
-                wall, c = render(sc, on, gi=gi, proxies=prox)
+                wall, c = render(sc, on, gi=gi, proxies=prox, shadows=own_shadows and not k.endswith("_no_shadows"))
                 res.setdefault(name, {}).setdefault(k, []).append(wall)
                 cpu.setdefault(name, {}).setdefault(k, []).append(round(c, 2))
         for k, v in res[name].items():
