@@ -227,6 +227,13 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
               + (f", {r['cpu_ratio_to_eevee_gi_plain']}x plain" if plain else "")
               + (f", {r['cpu_ratio_to_eevee_gi_plain_noshadow']}x plain with its shadows off too" if noshadow else "")
               + f") {r['renders']} {r.get('score', '')}", file=sys.stderr, flush=True)
+        # the number to read on a shared machine: each round's frame against the render made just before it
+        for key, what in (("paired_cpu_ratios_plain", "plain EEVEE GI"),
+                          ("paired_cpu_ratios_plain_noshadow", "plain EEVEE GI with its shadows off too")):
+            if key in r:
+                p = r[key]
+                print(f"{name} {v}: frame / {what}, CPU s, paired over {len(p)} rounds: median "
+                      f"{float(np.median(p)):.3f} ({min(p):.3f}-{max(p):.3f})", file=sys.stderr, flush=True)
     row["eevee_gi_s"] = round(row["eevee_gi_s"], 2)
     if name in refs:
         ref, mask = refs[name]
