@@ -130,10 +130,11 @@ def main(argv=None) -> int:
                          f"{' '.join(CONFIGS)}, each also as NAME_no_gi, and {' '.join(GI_OFF_SETS)} as NAME_no_gi; "
                          f"on request {' '.join(ONE_RENDER_SETS)}, each as NAME_no_gi; any as NAME_no_shadows)")
     a = ap.parse_args(argv)
-    every = {**{k: (on, True, None) for k, on in CONFIGS.items()},
-             **{f"{k}_no_gi": (on, False, None) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()},
-             **{f"{k}_no_gi": (on, False, prox) for k, (on, prox) in ONE_RENDER_SETS.items()}}
-    every |= {f"{k}_no_shadows": v for k, v in every.items()}
+    # {name: (passes, ray tracing + fast GI, emitter proxies, EEVEE's shadows: True keeps the file's setting)}
+    every = {**{k: (on, True, None, True) for k, on in CONFIGS.items()},
+             **{f"{k}_no_gi": (on, False, None, True) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()},
+             **{f"{k}_no_gi": (on, False, prox, True) for k, (on, prox) in ONE_RENDER_SETS.items()}}
+    every |= {f"{k}_no_shadows": (on, gi, prox, False) for k, (on, gi, prox, _s) in every.items()}
     for k in a.configs or ():
         if k not in every:
             ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
@@ -157,14 +158,14 @@ def main(argv=None) -> int:
         # GI off, shadows off)
         render(sc, ONE_PASSES + (VECTOR,), shadows=own_shadows)
         render(sc, ONE_PASSES, gi=False, shadows=own_shadows)
-        if any(k.endswith("_no_shadows") for k in chosen):
+        if not all(sh for *_c, sh in chosen.values()):
             render(sc, ONE_PASSES, gi=False, shadows=False)
-        for prox in sorted({p for _o, _g, p in chosen.values() if p is not None}):  # (and with the proxies)
+        for prox in sorted({p for _o, _g, p, _s in chosen.values() if p is not None}):  # (and with the proxies)
             render(sc, ONE_PASSES, gi=False, proxies=prox, shadows=own_shadows)
         sc.render.resolution_x, sc.render.resolution_y = a.size
         for _ in range(a.repeats):
-            for k, (on, gi, prox) in chosen.items():
-                wall, c = render(sc, on, gi=gi, proxies=prox, shadows=own_shadows and not k.endswith("_no_shadows"))
+            for k, (on, gi, prox, shadows) in chosen.items():
+                wall, c = render(sc, on, gi=gi, proxies=prox, shadows=own_shadows and shadows)
                 res.setdefault(name, {}).setdefault(k, []).append(wall)
                 cpu.setdefault(name, {}).setdefault(k, []).append(round(c, 2))
         for k, v in res[name].items():
