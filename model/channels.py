@@ -112,6 +112,13 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "one-render models (issue 15: a frame that is one EEVEE render without EEVEE's GI, docs/one_render.md); "
           "every group they read comes from that render, and so does the rest.",
           render_pass="Diffuse Direct", drop_rank=None),
+    Group("eevee_combined", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
+          "EEVEE's Combined image of the same GI-off one render as eevee_local (ray tracing and fast GI off, the "
+          "emitter proxies on, the artist's samples): the lamps' light with soft shadows on every component, "
+          "specular and emission included, no indirect light. The input of GI-off one-render models that do without "
+          "the Diffuse Direct pass (head residual_combined, target ref_combined, docs/one_render.md session 26): "
+          "their image is this render + albedo x the light it lacks.",
+          render_pass="Combined", drop_rank=None),
     Group("vector", ("X", "Y", "Z", "W"), "motion", "eevee", "use_pass_vector", "pixels",
           "EEVEE Vector pass (motion vectors): X, Y = the pixel's position in the PREVIOUS frame minus its position "
           "now, Z, W = its position now minus its position in the NEXT frame, in pixels, x right, y UP (measured: "
@@ -155,15 +162,15 @@ STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "surround", "rest", "gloss", "eevee_diffuse", "eevee_local", "eevee",
+                                  "emit_direct", "surround", "rest", "gloss", "eevee_diffuse", "eevee_local", "eevee_combined", "eevee",
                                   "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
 OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "rest",
-                                    "gloss", "eevee_diffuse", "eevee_local", "ref_diffuse")
+                                    "gloss", "eevee_diffuse", "eevee_local", "eevee_combined", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                 "emit_direct", "surround", "eevee_diffuse", "eevee_local", "lit", "scene", "glow",
-                                 "scene_gi")
+                                 "emit_direct", "surround", "eevee_diffuse", "eevee_local", "eevee_combined", "lit",
+                                 "scene", "glow", "scene_gi")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 # A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what
@@ -171,12 +178,17 @@ INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "w
 # (prediction + rest) and can also correct EEVEE's rest where it differs from Cycles' on surfaces with a diffuse
 # colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit_shot.md); where
 # the albedo is 0 (metal) its prediction stays 0 and EEVEE's rest stands. The per-shot fit's --learn-rest (issue 16).
-TARGETS: tuple[str, ...] = ("ref", "ref_diffuse", "ref_minus_rest")
+# A fourth, "ref_combined" (GI-off one-render models without the Diffuse Direct pass, session 26): the whole Cycles
+# image, learned as EEVEE's GI-off Combined image (group eevee_combined) + albedo x the light it lacks (head
+# residual_combined); the model's prediction is that addition (signed: the network may also take light away where
+# EEVEE's is brighter), and the SSGI image is prediction + eevee_combined. No rest, no Diffuse Direct pass.
+TARGETS: tuple[str, ...] = ("ref", "ref_diffuse", "ref_minus_rest", "ref_combined")
 TARGET_GROUP = "ref"  # the image every method is scored against, and the target of a checkpoint that names none
 DIFFUSE_TARGET = "ref_diffuse"
 REST_TARGET = "ref_minus_rest"
+COMBINED_TARGET = "ref_combined"
 # the stored groups each target is read from (the others are stored groups themselves)
-TARGET_SOURCES: dict[str, tuple[str, ...]] = {REST_TARGET: ("ref", "rest")}
+TARGET_SOURCES: dict[str, tuple[str, ...]] = {REST_TARGET: ("ref", "rest"), COMBINED_TARGET: ("ref", "eevee_combined")}
 
 
 def check_target(target: str) -> str:
@@ -194,6 +206,20 @@ def adds_rest(target: str) -> bool:
     """Whether the SSGI image of a model of ``target`` is its prediction + EEVEE's rest (model/infer/compose.py):
     ref_diffuse and ref_minus_rest models; a ref model's prediction is the whole image."""
     return check_target(target) in (DIFFUSE_TARGET, REST_TARGET)
+
+
+def base_group(target: str) -> str | None:
+    """The EEVEE group a model's prediction is added to for the SSGI image (model/infer/compose.py): ``rest`` for
+    ref_diffuse and ref_minus_rest models, ``eevee_combined`` for ref_combined models, None for ref models (their
+    prediction is the whole image)."""
+    t = check_target(target)
+    return "rest" if t in (DIFFUSE_TARGET, REST_TARGET) else "eevee_combined" if t == COMBINED_TARGET else None
+
+
+def adds_part(target: str) -> bool:
+    """Whether a model of ``target`` predicts a part of the image that is added to an EEVEE group (``base_group``):
+    albedo x light, brought back from a working resolution as light (model/infer/workres.py)."""
+    return base_group(target) is not None
 # The seed's 13 inputs.
 DEFAULT_INPUTS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "lit")
 

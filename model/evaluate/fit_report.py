@@ -68,7 +68,7 @@ def score_node(net, views, keys) -> dict:
         for k in keys:
             g = views.raw[k]
             out = pred.predict(g)
-            if ch.adds_rest(pred.target) and "rest" in g:
+            if ch.adds_part(pred.target) and ch.base_group(pred.target) in g:
                 out = compose(out, g, pred.target)
             r = metrics.score(out, normalize.target(g), images.geometry_mask(g["depth"], g["normal"]),
                               with_flip=False)

@@ -10,6 +10,9 @@ A model predicts its checkpoint's target (``Predictor.target``, ``channels.TARGE
 - ``ref_minus_rest`` (a shot fit's --learn-rest): composed as ``ref_diffuse``; the model learned Cycles' image
   minus EEVEE's rest, so its prediction also makes up for where EEVEE's rest falls short on diffuse-coloured
   surfaces.
+- ``ref_combined`` (GI-off one-render models without the Diffuse Direct pass, session 26): the SSGI image is
+  ``prediction + eevee_combined``, EEVEE's GI-off Combined image plus albedo x the light it lacks (signed: the
+  prediction may take light away); albedo-0 pixels (metal, glass, sky) keep EEVEE's image.
 - ``ref`` (models before issue 14): the whole image; pixels where nothing was hit (``background``) show
   EEVEE's Combined image (group ``eevee``).
 """
@@ -23,7 +26,8 @@ from ..errors import UserError
 
 def needs(target: str) -> tuple[str, ...]:
     """The groups ``compose`` reads besides the prediction, for a model of ``target``."""
-    return ("rest",) if ch.adds_rest(target) else ("eevee",)
+    base = ch.base_group(target)
+    return (base,) if base else ("eevee",)
 
 
 def compose(pred: np.ndarray, groups: dict, target: str, background: np.ndarray | None = None) -> np.ndarray:
@@ -33,8 +37,9 @@ def compose(pred: np.ndarray, groups: dict, target: str, background: np.ndarray 
     if miss:
         raise UserError(f"composing the SSGI image of a {target} model needs the group(s) {', '.join(miss)}")
     out = np.array(pred[..., :3], dtype=np.float32, copy=True)
-    if ch.adds_rest(target):
-        rest = np.nan_to_num(np.asarray(groups["rest"], np.float32)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
+    base = ch.base_group(target)
+    if base:
+        rest = np.nan_to_num(np.asarray(groups[base], np.float32)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
         out += rest
         # rest is negative on some anti-aliased edges (mean of products against product of means); the image is not
         np.maximum(out, 0.0, out=out)

@@ -81,7 +81,8 @@ def run_tiled(forward, x: np.ndarray, tile: int | None, multiple: int, ov: int) 
 
 
 class ContractPredictor:
-    """A loaded model: ``predict(groups)`` -> HxWx3 float32 linear HDR RGB, finite, >= 0, any size.
+    """A loaded model: ``predict(groups)`` -> HxWx3 float32 linear HDR RGB, finite, >= 0, any size (a ref_combined
+    model: the signed part it adds to EEVEE's image, ``combined_part``).
 
     ``groups``: {group name: HxWxC float32} holding at least ``required`` (the stored groups the input spec
     needs). Non-finite inputs are repaired by normalize's rule; ``last_repaired`` holds the pixel count.
@@ -136,7 +137,19 @@ class ContractPredictor:
         x = x.transpose(2, 0, 1)[None]  # HxWxC memory: a channels-last view of 1xCxHxW
         out = run_tiled(self._forward, x, self.tile if tile == -1 else tile, self.multiple, self.overlap)
         lin = np.ascontiguousarray(out[0].transpose(1, 2, 0), dtype=np.float32)
-        return finish(lin, groups, self.spec, self.required)
+        lin = finish(lin, groups, self.spec, self.required)
+        if self.target == ch.COMBINED_TARGET:
+            return combined_part(lin, groups)
+        return lin
+
+
+def combined_part(image: np.ndarray, groups: dict) -> np.ndarray:
+    """A ref_combined model's prediction from its network's whole image (HxWx3, in place): the part it adds to
+    EEVEE's GI-off Combined image (signed), 0 where the albedo is black (the head keeps that image there)."""
+    c = np.nan_to_num(np.asarray(groups["eevee_combined"], np.float32)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
+    image -= c
+    image[~(np.asarray(groups["albedo"]) > 0).any(axis=-1)] = 0.0
+    return image
 
 
 def finish(lin: np.ndarray, groups: dict, spec: tuple[str, ...], required: tuple[str, ...]) -> np.ndarray:

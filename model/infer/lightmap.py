@@ -228,8 +228,11 @@ class Lightmap:
     ``nfreq``, the blend weight ``lam`` and the ``known`` groups it adds back (module doc)."""
 
     def __init__(self, weights, lo, hi, nfreq: int = NFREQ, lam: float = 0.0, meta: dict | None = None,
-                 known=()):
+                 known=(), signed: bool | None = None):
         self.known = tuple(known)  # groups added back at render time (module doc); () = the field is the light
+        # a ref_combined model's field: the light its prediction adds to EEVEE's GI-off image, signed (recorded as
+        # the meta's target when saved)
+        self.signed = bool(signed) if signed is not None else (dict(meta or {}).get("target") == "ref_combined")
         bad = [k for k in self.known if not any(k in alt for alt in KNOWN_CANDIDATES)]
         if bad:
             raise UserError(f"lightmap: unknown known-light group(s) {', '.join(bad)}")
@@ -250,7 +253,7 @@ class Lightmap:
             out[s:s + chunk] = mlp(encode(pts[s:s + chunk], nrm[s:s + chunk], self.lo, self.hi, self.nfreq),
                                    self.weights)
         out = np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
-        return out if self.known else np.maximum(out, 0.0)
+        return out if (self.known or self.signed) else np.maximum(out, 0.0)
 
     def light(self, groups: dict, M, P, factor: int | None = None) -> np.ndarray:
         """HxWx3 diffuse light of the frame's pixels (module doc, step 2). ``factor``: evaluate at the working

@@ -319,12 +319,15 @@ def _finite_light(a) -> np.ndarray:
     return np.maximum(a, np.float32(0.0))
 
 
-def diffuse_light(part_lo: np.ndarray, albedo_lo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def diffuse_light(part_lo: np.ndarray, albedo_lo: np.ndarray, signed: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(light, confidence) at the working resolution: light = part / albedo per channel where that channel's
     albedo > EPS, else the grey estimate sum(part) / sum(albedo); confidence = the mean albedo (0 where
-    nothing was hit or the albedo is black: such samples take no part in the upsample)."""
+    nothing was hit or the albedo is black: such samples take no part in the upsample). ``signed``: the part may be
+    negative (a ref_combined model's, added to EEVEE's image), else it is clamped at 0 first."""
     a = np.clip(np.asarray(albedo_lo, np.float32)[..., :3], 0, 1)
-    p = np.maximum(np.asarray(part_lo, np.float32)[..., :3], 0)
+    p = np.nan_to_num(np.asarray(part_lo, np.float32)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
+    if not signed:
+        p = np.maximum(p, 0)
     grey = p.sum(-1, keepdims=True) / np.maximum(a.sum(-1, keepdims=True), EPS)
     light = np.where(a > EPS, p / np.maximum(a, EPS), grey).astype(np.float32)
     conf = a.mean(-1)
@@ -340,12 +343,13 @@ def base_light(groups: dict) -> np.ndarray | None:
 
 
 def upsample_part(part_lo: np.ndarray, lo: dict, hi: dict, method: str = "guided", residual: bool = False,
-                  **kw) -> np.ndarray:
+                  signed: bool = False, **kw) -> np.ndarray:
     """A diffuse part predicted at the working resolution -> the diffuse part at the output resolution:
     light = part / albedo (low res); with ``residual`` the direct light (``base_light``) is taken out before
     the upsample and its full-resolution version put back after (its shadow edges stay sharp); x the
-    full-resolution albedo."""
-    light, conf = diffuse_light(part_lo, lo["albedo"])
+    full-resolution albedo. ``signed``: a ref_combined model's part (added to EEVEE's GI-off Combined image, whose
+    full-resolution edges and shadows stay as rendered): may be negative, never clamped."""
+    light, conf = diffuse_light(part_lo, lo["albedo"], signed=signed)
     base_lo = base_light(lo) if residual else None
     if base_lo is not None:
         light -= base_lo
@@ -355,7 +359,7 @@ def upsample_part(part_lo: np.ndarray, lo: dict, hi: dict, method: str = "guided
     if base_lo is not None:
         up += base_light(hi)
     up *= np.clip(_finite_light(hi["albedo"]), 0, 1)
-    return np.maximum(up, np.float32(0.0), out=up)
+    return up if signed else np.maximum(up, np.float32(0.0), out=up)
 
 
 # --- the wrapper ----------------------------------------------------------------------------------------
@@ -408,9 +412,14 @@ class WorkingResolution:
         t1 = time.perf_counter()
         part = self.inner.predict(lo, tile=tile)
         t2 = time.perf_counter()
-        if ch.adds_rest(getattr(self.inner, "target", ch.DIFFUSE_TARGET)):
-            out = upsample_part(part, lo, groups, method=self.method, residual=self.residual, factor=f,
-                               threads=self.threads)
+        target = getattr(self.inner, "target", ch.DIFFUSE_TARGET)
+        signed = target == ch.COMBINED_TARGET
+        if ch.adds_part(target):
+            out = upsample_part(part, lo, groups, method=self.method, residual=self.residual and not signed,
+                                factor=f, threads=self.threads, signed=signed)
+            if signed:
+                self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=time.perf_counter() - t2)
+                return out
         else:
             from ..images import geometry_mask
             conf = geometry_mask(lo["depth"], lo["normal"]).astype(np.float32)[..., None]

@@ -121,9 +121,9 @@ class FitConfig:
             raise UserError("train, validation and test views must be disjoint")
         if self.inputs is not None:
             ch.parse_spec(self.inputs)
-        if self.target is not None and not ch.adds_rest(self.target):
+        if self.target is not None and not ch.adds_part(self.target):
             raise UserError(f"fit target {self.target!r}: a fit learns ref_diffuse or ref_minus_rest (the node adds "
-                            "EEVEE's rest to either)")
+                            "EEVEE's rest to either) or ref_combined (added to EEVEE's GI-off Combined image)")
         if not self.ladder and not self.init:
             raise UserError("--ladder is empty and there is no checkpoint to fine-tune (--init): nothing to train")
         for row in self.ladder:

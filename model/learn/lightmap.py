@@ -46,9 +46,12 @@ MIN_POINTS = 1000
 
 
 def view_target(groups: dict, target: str) -> np.ndarray:
-    """The fit's target of a view (channels.TARGET_SOURCES: ref_minus_rest = max(ref - rest, 0))."""
+    """The fit's target of a view (channels.TARGET_SOURCES: ref_minus_rest = max(ref - rest, 0); ref_combined =
+    ref - eevee_combined, signed: what that model's prediction adds to EEVEE's GI-off image)."""
     if target == ch.REST_TARGET:
         return np.maximum(groups["ref"][..., :3] - groups["rest"][..., :3], 0.0)
+    if target == ch.COMBINED_TARGET:
+        return groups["ref"][..., :3] - groups["eevee_combined"][..., :3]
     return groups[target][..., :3]
 
 
@@ -126,7 +129,8 @@ def train_steps(net, loss_of, n: int, seconds: float, steps: int | None, seed: i
 
 
 def train_field(pos: np.ndarray, nrm: np.ndarray, y: np.ndarray, seconds: float, seed: int = 0,
-                nfreq: int = lm.NFREQ, log=None, steps: int | None = None, known=()) -> tuple[lm.Lightmap, dict]:
+                nfreq: int = lm.NFREQ, log=None, steps: int | None = None, known=(),
+                signed: bool = False) -> tuple[lm.Lightmap, dict]:
     """Train the MLP on the points for ``seconds`` (module doc, step 2), or ``steps`` steps when that comes first
     (the learning rate's cosine then runs over the steps); returns (Lightmap with lam 0, stats)."""
     if len(pos) < MIN_POINTS:
@@ -141,7 +145,7 @@ def train_field(pos: np.ndarray, nrm: np.ndarray, y: np.ndarray, seconds: float,
     stats = dict(points=int(len(pos)), steps=step, seconds=secs,
                  loss=float(np.mean(run[-200:])) if run else None, hidden=HIDDEN, layers=LAYERS, nfreq=nfreq,
                  known=list(known))
-    return lm.Lightmap(weights, lo, hi, nfreq, 0.0, meta=stats, known=known), stats
+    return lm.Lightmap(weights, lo, hi, nfreq, 0.0, meta=stats, known=known, signed=signed), stats
 
 
 def choose_weight(field: lm.Lightmap, data_dir, cameras: dict, keys, predictor, target: str) -> tuple[float, dict]:
@@ -185,7 +189,7 @@ def fit_lightmap(data_dir, cameras: dict, train, val, predictor, target: str, se
         t1 = time.perf_counter()
         pos, nrm, y = points(data_dir, cameras, train, target, kn)
         field, stats = train_field(pos, nrm, y, max(left - (time.perf_counter() - t1), 1.0), seed=seed, log=log,
-                                   steps=steps, known=kn)
+                                   steps=steps, known=kn, signed=target == ch.COMBINED_TARGET)
         lam, scores = choose_weight(field, data_dir, cameras, val, predictor, target)
         name = "+".join(kn) or "none"
         tried[name] = dict(stats, lam=lam, val_psnr={str(k): round(v, 3) for k, v in scores.items()})

@@ -7,6 +7,11 @@ LOSS SPACE: ``log1p`` of linear HDR RGB (N x 3 x H x W). ``to_linear`` maps it b
     log       prediction = o                                      (the seed's plain regression, in log space)
     demod     shading s = relu(o);  prediction = log1p(albedo * expm1(s))          (needs albedo in inputs)
     residual  s = relu(log1p(direct) + o); prediction = log1p(albedo * expm1(s))   (needs albedo, direct)
+    residual_combined  (target ref_combined: no Diffuse Direct pass, only EEVEE's GI-off Combined image C)
+              b = C / max(albedo, ALBEDO_FLOOR) (the light C would be on a diffuse surface); s = relu(log1p(b) + o);
+              prediction = log1p(max(C + albedo * (expm1(s) - b), 0))   (needs albedo, eevee_combined)
+              o = 0 is EEVEE's image itself; albedo 0 (metal, glass, sky) keeps C exactly; the light the network
+              adds, albedo * (expm1(s) - b), may be negative (down to -C where the albedo is above the floor).
 
 ``demod``/``residual`` predict the irradiance ("shading") and multiply by albedo: an all-black albedo gives
 exactly 0, and ``residual`` starts from the direct light (o = 0 is the local-illumination image).
@@ -51,7 +56,10 @@ HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
               # one-render models (issue 15): the shading starts from EEVEE's own diffuse light, not the hard direct
               "residual_gi": ("albedo", "eevee_diffuse"),
               # GI-off one-render models: from EEVEE's diffuse light without its GI (lamps, emitter proxies, world)
-              "residual_local": ("albedo", "eevee_local")}
+              "residual_local": ("albedo", "eevee_local"),
+              # ... and from that render's Combined image alone (no Diffuse Direct pass: target ref_combined)
+              "residual_combined": ("albedo", "eevee_combined")}
+ALBEDO_FLOOR = 0.05  # residual_combined: the albedo the base light C / albedo is divided by at least
 
 class Head(nn.Module):
     def __init__(self, kind: str, spec: tuple[str, ...]):
@@ -71,6 +79,13 @@ class Head(nn.Module):
     def forward(self, o: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
         if self.kind == "log":
             return o
+        if self.kind == "residual_combined":
+            albedo = x[:, self.alb[0]:self.alb[1]]
+            c = torch.expm1(x[:, self.dir[0]:self.dir[1]])  # the input holds log1p(C)
+            b = c / albedo.clamp_min(ALBEDO_FLOOR)
+            s = torch.relu(torch.log1p(b) + o).clamp_max(LOG_MAX)
+            return torch.log1p(torch.relu(c + albedo * (torch.expm1(s) - b)))
+        # (the other heads' ops in this order: the shipped ONNX export is re-made byte for byte, tests/unit/test_onnx.py)
         s = o
         if self.kind.startswith("residual"):
             s = s + x[:, self.dir[0]:self.dir[1]]

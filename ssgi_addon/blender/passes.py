@@ -37,7 +37,9 @@ from ...model.errors import UserError
 PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
 # groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
 # input of one-render models; issue 15, docs/one_render.md)
-REST_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")
+# eevee_combined: that render's Combined image (RGB), the input of GI-off one-render models without its Diffuse Direct
+# pass (target ref_combined, session 26)
+REST_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local", "eevee_combined")
 # whether the GI-off one render's emitter proxies cast shadows: no (session 21, docs/one_render.md). On Mesa their
 # shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 at 16 samples (benchmarks/pass_cost.py), and EEVEE's
 # soft shadows at 16 samples are noisy where the network passed the noise on; the network and the shot's lightmap
@@ -54,7 +56,9 @@ PROXY_SIDES_LOCAL = "open"
 # proxies on (a frame without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter
 # without its GI), PROXY_SHADOWS_LOCAL
 ONE_RENDER_MODES: dict[str, tuple[bool, bool, bool]] = {"eevee_diffuse": (True, False, True),
-                                                        "eevee_local": (False, True, PROXY_SHADOWS_LOCAL)}
+                                                        "eevee_local": (False, True, PROXY_SHADOWS_LOCAL),
+                                                        # the same render, read as its Combined image
+                                                        "eevee_combined": (False, True, PROXY_SHADOWS_LOCAL)}
 
 
 def _recorded_proxies(meta: dict) -> dict | None:
@@ -543,7 +547,7 @@ REST_EMITTER_PROXIES = True
 
 
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
-                proxy_shadows: bool = True, proxy_sides: str = "both"):
+                proxy_shadows: bool = True, proxy_sides: str = "both", rest: bool = True):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -563,7 +567,10 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     (``direct_light.emitter_proxies``; the render path's and the bakes' rest, ``REST_EMITTER_PROXIES``), so that
     EEVEE's reflections and transmission see the light the emitters cast; without, the render is EEVEE's own.
     ``proxy_shadows`` False: the proxies cast no shadow (``ONE_RENDER_MODES``); ``proxy_sides`` "open": a proxy only
-    for the sides of an emitter that face open space (``PROXY_SIDES_LOCAL``). The settings it changes are put back."""
+    for the sides of an emitter that face open space (``PROXY_SIDES_LOCAL``). ``rest`` False: the render writes only
+    the passes of ``groups`` (no Diffuse Color or Diffuse Direct for a rest) and the first item is None; with
+    ``groups`` holding ``eevee_combined`` (that render's Combined RGB) and not ``eevee_local``, the render of a
+    ref_combined model's frame, which needs no Diffuse Direct pass. The settings it changes are put back."""
     from . import direct_light
 
     _check_camera(scene)
@@ -579,18 +586,20 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
             scene.eevee.use_raytracing = scene.eevee.use_fast_gi = bool(gi)
         no_light_culled(scene)
         vl = scene.view_layers[0]
-        for f in REST_PASSES + tuple(ch.GROUPS[g].blender_pass for g in groups):
-            setattr(vl, f, True)
+        for f in (REST_PASSES if rest else ()) + tuple(ch.GROUPS[g].blender_pass for g in groups):
+            if f:  # (eevee_combined: the Combined pass, always written)
+                setattr(vl, f, True)
         t0 = time.perf_counter()
         passes = _render(scene)
         last_timings["rest"] = time.perf_counter() - t0
     comb = passes["Combined"]
     combined = np.stack([comb[c] for c in "RGBA"], axis=-1).astype(np.float32)
-    light = _rgb(passes, "Diffuse Direct")
-    rest = combined[..., :3] - _rgb(passes, "Diffuse Color") * light
+    light = _rgb(passes, "Diffuse Direct") if rest or any(g in REST_LIGHT_GROUPS[:2] for g in groups) else None
+    made = (combined[..., :3] - _rgb(passes, "Diffuse Color") * light).astype(np.float32) if rest else None
     if not groups:
-        return rest.astype(np.float32), combined
-    return rest.astype(np.float32), combined, {g: light if g in REST_LIGHT_GROUPS else _group(passes, g) for g in groups}
+        return made, combined
+    return made, combined, {g: np.ascontiguousarray(combined[..., :3]) if g == "eevee_combined" else
+                            light if g in REST_LIGHT_GROUPS else _group(passes, g) for g in groups}
 
 
 # The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
@@ -643,14 +652,14 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_sources.clear()
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
     ones = [g for g in groups if g in REST_LIGHT_GROUPS]
-    if len(ones) > 1:
+    if len({ONE_RENDER_MODES[g] for g in ones}) > 1:
         raise ValueError(f"groups {ones} come from different one-render renders (ray tracing and fast GI on / off): "
                          "ask for one")
     one = bool(ones)  # a one-render model: every group from its one render
     gi, proxied, shadowed = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies, True)
     if proxy_shadows is not None:
         shadowed = bool(proxy_shadows)
-    sides = proxy_sides or (PROXY_SIDES_LOCAL if ones == ["eevee_local"] else "both")
+    sides = proxy_sides or (PROXY_SIDES_LOCAL if ones and "eevee_diffuse" not in ones else "both")
     if sides not in ("open", "both"):
         raise ValueError(f"proxy_sides {sides!r}: 'open' or 'both'")
     with_rest = "rest" in groups or one or any(g in REST_ONLY_GROUPS for g in groups)
@@ -683,13 +692,17 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
             with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
+    # (a ref_combined model's frame: its one render without the Diffuse Direct pass a rest would need)
+    need_rest = not one or "rest" in groups or any(g in REST_LIGHT_GROUPS[:2] for g in groups)
     if with_rest:
         made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed,
-                           proxy_sides=sides)
-        out["rest"], out["beauty"] = made[:2]
+                           proxy_sides=sides, rest=need_rest)
+        out["beauty"] = made[1]
+        if made[0] is not None:
+            out["rest"] = made[0]
         if rest_groups:
             out.update(made[2])
-    out = {g: out[g] for g in groups} | ({"beauty": out["beauty"]} if "beauty" in out else {})
+    out = {g: out[g] for g in groups if g in out} | ({"beauty": out["beauty"]} if "beauty" in out else {})
     last_sources.update({g: "rest" if g in rest_groups + ("rest",) else "raster" if g in raster else g for g in groups})
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))

@@ -97,7 +97,7 @@ def _check_materials(scene, objs, target, found):
                 neg[m.name] = v
     if vol_mats:
         where = "; ".join(f"material {m!r} on {_names(obs)}" for m, obs in sorted(vol_mats.items()))
-        if ch.adds_rest(target):
+        if ch.adds_part(target):
             found.append(Finding("volume_material", f"volume shader ({where}): EEVEE renders the volume itself, but "
                                  f"the diffuse light SSGI predicts inside and behind it is not dimmed by it and its "
                                  f"volume shadows differ; expect errors there (unlink the Volume output to avoid)"))

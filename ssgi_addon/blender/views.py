@@ -312,7 +312,7 @@ def views_tag(blend: Path, plan: dict) -> str:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     keys = ("scene", "frames", "cameras", "size", "seed", "radius") + tuple(
-        k for k in ("test_frames", "rest_samples", "one_render", "proxy_shadows", "proxy_sides")
+        k for k in ("test_frames", "rest_samples", "one_render", "one_render_kind", "proxy_shadows", "proxy_sides")
         if k in plan)  # (so that a plan without them keeps its old tag)
     h.update(json.dumps({k: plan.get(k) for k in keys},
                         sort_keys=True).encode())

@@ -118,7 +118,9 @@ def register_cli(sub) -> None:
     p.add_argument("--one-render", choices=tuple(ONE_RENDER_KINDS), default="gi",
                    help="with --gi-samples, the kind of one render: gi (ray tracing and fast GI on, eevee_diffuse) or "
                         "local (both off, an area light standing in for each planar emitter; eevee_local and the "
-                        "Glossy Color gloss): a GI-off one-render model's inputs (default %(default)s)")
+                        "Glossy Color gloss): a GI-off one-render model's inputs; or combined (the same render, its "
+                        "Combined image stored as eevee_combined too: the inputs of models that read no Diffuse Direct "
+                        "pass, cli.py fit --one-render combined) (default %(default)s)")
     p.add_argument("--rest-samples", type=cliargs.nonnegative_int, default=0, metavar="N",
                    help="the samples also hold EEVEE's rest (all it renders besides diffuse light) of the scene at its "
                         "own settings at N samples, as the node renders it: what a fit that learns the rest "

@@ -34,7 +34,7 @@ def config(args) -> FitSceneConfig:
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
                           frames=args.frames, learn_rest=args.learn_rest,
                           rest_samples=args.rest_samples, lightmap=not args.no_lightmap,
-                          reflmap=not args.no_reflmap, one_render=args.one_render,
+                          reflmap=not args.no_reflmap, one_render=args.one_render or False,
                           command=command_line())
 
 
@@ -123,10 +123,13 @@ def register_cli(sub) -> None:
     p.add_argument("--rest-samples", type=cliargs.positive_int, default=None, metavar="N",
                    help="with --learn-rest, or a shot fit's reflection map: EEVEE samples of the views' rest "
                         "(default: the scene's own, as the node renders it; fewer make the bake cheaper)")
-    p.add_argument("--one-render", action="store_true",
+    p.add_argument("--one-render", nargs="?", const="local", default=None, choices=("local", "combined"),
+                   metavar="KIND",
                    help="fit a GI-off one-render model: each frame of the node is then ONE EEVEE render with ray "
                         "tracing and fast GI off (the network and the shot's lightmap give the GI), cheaper than "
                         "EEVEE's own GI render at the same samples (issue 15, docs/one_render.md); the views hold that "
-                        "render's passes and the fit trains small networks from scratch on them")
+                        "render's passes and the fit trains small networks from scratch on them. KIND: local (the "
+                        "default) reads its Diffuse Direct pass; combined reads its Combined image instead, so the "
+                        "frames render one pass fewer (no reflection map: there is no rest to correct)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)

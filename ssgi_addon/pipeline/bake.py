@@ -41,9 +41,11 @@ ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission
 # the kinds of one-render bake (--one-render): "gi" as above; "local", the one render made with ray tracing and fast
 # GI off and the emitter proxies on (passes.ONE_RENDER_MODES), its Diffuse Direct stored as eevee_local, and its Glossy
 # Color (gloss, for a shot's reflection map)
-ONE_RENDER_KINDS = {"gi": "eevee_diffuse", "local": "eevee_local"}
+# "combined": the same GI-off render as "local", its Combined image stored as eevee_combined (what ref_combined models
+# read instead of the Diffuse Direct pass, session 26) beside its eevee_local and gloss (the fit's report and maps)
+ONE_RENDER_KINDS = {"gi": "eevee_diffuse", "local": "eevee_local", "combined": "eevee_combined"}
 # ... and the groups of the one render each kind stores besides its light, rest and the shared groups
-ONE_RENDER_EXTRA = {"gi": (), "local": ("gloss",)}
+ONE_RENDER_EXTRA = {"gi": (), "local": ("gloss",), "combined": ("eevee_local", "gloss")}
 
 
 def one_render_bake_groups(kind: str = "gi") -> tuple[str, ...]:
@@ -66,7 +68,7 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
         gi, proxies, shadows = passes.ONE_RENDER_MODES[light]
         s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": gi, "fast_gi": gi, "kind": one_render,
                                     "emitter_proxies": proxies, "emitter_proxy_shadows": shadows if proxies else None,
-                                    "emitter_proxy_sides": (passes.PROXY_SIDES_LOCAL if light == "eevee_local" else "both")
+                                    "emitter_proxy_sides": (passes.PROXY_SIDES_LOCAL if light != "eevee_diffuse" else "both")
                                     if proxies else None,
                                     "groups_from_it": [light, "rest", *passes.SHARED_GROUPS,
                                                        *ONE_RENDER_EXTRA[one_render]],
@@ -293,7 +295,8 @@ class BakeConfig:
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
     gi_samples: int = 0  # > 0: a one-render bake, its artist-settings render at this many samples (docs/one_render.md)
-    one_render: str = "gi"  # ... of this kind (ONE_RENDER_KINDS): "gi" ray tracing + fast GI on, "local" both off
+    one_render: str = "gi"  # ... of this kind (ONE_RENDER_KINDS): "gi" ray tracing + fast GI on, "local" both off,
+    # "combined" as local, its Combined image stored too
     rest_samples: int = 0  # > 0: the samples also hold EEVEE's rest at the scene's settings at this many samples
 
     def check(self) -> None:

@@ -80,17 +80,25 @@ def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
 # its emission statistics, the surround ray casts (no render), never the hard direct light or the other renders
 ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_local,glow,surround"
 ONE_RENDER_HEAD = "residual_local"
+# ... of each kind (--one-render KIND): "local" reads the render's Diffuse Direct pass (eevee_local) and is composed
+# with its rest; "combined" reads its Combined image instead (eevee_combined: no Diffuse Direct pass in the frame's
+# render, session 26), learns target ref_combined with head residual_combined and is composed as that image + its
+# prediction. {kind: (inputs, head, target: None = the views' default ref_diffuse)}
+ONE_RENDER_FITS: dict[str, tuple[str, str, str | None]] = {
+    "local": (ONE_RENDER_INPUTS, ONE_RENDER_HEAD, None),
+    "combined": ("albedo,normal,depth,emission,eevee_combined,glow,surround", "residual_combined", ch.COMBINED_TARGET)}
 
 
-def one_render_ladder(ladder, target, shot: bool) -> tuple[list, float | None, str]:
-    """(ladder, target PSNR, inputs) of a GI-off one-render fit: ``ladder`` (None: model.learn.fit.LADDER) with the
-    residual_local head, which starts from the one render's own diffuse light, on ONE_RENDER_INPUTS; a shot aims at
-    the shot bar (fit_report.SHOT_BAR_DB) unless ``target`` says otherwise."""
+def one_render_ladder(ladder, target, shot: bool, kind: str = "local") -> tuple[list, float | None, str]:
+    """(ladder, target PSNR, inputs) of a GI-off one-render fit of ``kind`` (ONE_RENDER_FITS): ``ladder`` (None:
+    model.learn.fit.LADDER) with the kind's head, which starts from the one render's own light, on its inputs; a shot
+    aims at the shot bar (fit_report.SHOT_BAR_DB) unless ``target`` says otherwise."""
     from ...model.evaluate.fit_report import SHOT_BAR_DB
     from ...model.learn.fit import LADDER
+    inputs, head, _ = ONE_RENDER_FITS[kind]
     rows = [list(r) for r in (LADDER if not ladder else ladder)]
-    rows = [[n, v, dict(o or {}, head=ONE_RENDER_HEAD)] for n, v, o in rows]
-    return rows, (SHOT_BAR_DB if target is None and shot else target), ONE_RENDER_INPUTS
+    rows = [[n, v, dict(o or {}, head=head)] for n, v, o in rows]
+    return rows, (SHOT_BAR_DB if target is None and shot else target), inputs
 
 
 def starts_to_probe(cfg, init, shot: bool) -> list[str]:
@@ -142,12 +150,24 @@ class FitSceneConfig:
     reflmap: bool = True
     # a GI-off one-render model (issue 15, docs/one_render.md): the views hold only what one EEVEE render with ray
     # tracing and fast GI off gives (eevee_local, albedo, normal, depth, emission, rest, gloss; passes.ONE_RENDER_MODES),
-    # scratch networks with head residual_local learn from it, and each frame of the node is that one render
-    one_render: bool = False
+    # scratch networks with head residual_local learn from it, and each frame of the node is that one render. A kind
+    # (ONE_RENDER_FITS; True: "local"): "combined" reads that render's Combined image instead of its Diffuse Direct
+    # pass, which the node's frames then do not render
+    one_render: bool | str = False
     command: str | None = None  # recorded in the checkpoint
+
+    @property
+    def one_render_kind(self) -> str | None:
+        """The kind of one-render fit (ONE_RENDER_FITS), None for another fit."""
+        if not self.one_render:
+            return None
+        return "local" if self.one_render is True else str(self.one_render)
 
     def check(self) -> None:
         """UserError naming the setting, before any work (nothing is written)."""
+        if self.one_render_kind is not None and self.one_render_kind not in ONE_RENDER_FITS:
+            raise UserError(f"--one-render {self.one_render}: not a kind of one-render fit; known: "
+                            f"{', '.join(ONE_RENDER_FITS)}")
         if self.one_render and self.learn_rest:
             raise UserError("--one-render and --learn-rest: a one-render model learns Cycles' diffuse part beside the "
                             "one render's rest; give one of them")
@@ -228,6 +248,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         plan.update(size=list(size), blend=str(blend))
         if cfg.one_render:  # every group from the one GI-off render, at the scene's own samples
             plan["one_render"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
+            if cfg.one_render_kind != "local":  # (the tag of views baked before kinds existed stays theirs)
+                plan["one_render_kind"] = cfg.one_render_kind
             # (in the views' tag: views baked with the emitter proxies' other shadows are not reused)
             from ..blender.passes import ONE_RENDER_MODES, PROXY_SIDES_LOCAL
             plan["proxy_shadows"] = ONE_RENDER_MODES["eevee_local"][2]
@@ -246,7 +268,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         data_dir = work / f"views-{tag}"
         report(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
         bake_views(wblend, data_dir, plan, size, ref_samples=cfg.ref_samples, log=log,
-                   rest_samples=plan.get("rest_samples", 0), one_render=plan.get("one_render", 0))
+                   rest_samples=plan.get("rest_samples", 0), one_render=plan.get("one_render", 0),
+                   one_render_kind=plan.get("one_render_kind", "local"))
         bake_s = time.perf_counter() - t0
         log(f"fit: views baked in {bake_s / 60:.2f} min")
     train, val, test = fviews.split_views(data_dir, plan)
@@ -263,7 +286,9 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     fit_minutes = max(left, floor) / 60.0
     lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
     # (not with --learn-rest: that model learns Cycles minus EEVEE's own rest, which a corrected rest would count twice)
+    # (nor for a ref_combined model: its frames have no rest to correct)
     glossy = (bool(cameras) and cfg.reflmap and not cfg.learn_rest and plan.get("glossy", True)
+              and cfg.one_render_kind != "combined"
               and "gloss" in dataset_folder.stored_groups(dataset_folder.open_folder(data_dir)))
     reflmap_s = min(REFLMAP_MAX_S, REFLMAP_SHARE * 60.0 * fit_minutes) if glossy else 0.0
     fit_minutes -= (lightmap_s + reflmap_s) / 60.0
@@ -273,12 +298,14 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     ladder, target = shot_defaults(cfg, init, bool(withheld))
     also = starts_to_probe(cfg, init, bool(withheld)) if not cfg.one_render else list(cfg.also_init or ())
     inputs = None
+    learn = ch.REST_TARGET if cfg.learn_rest else None
     if cfg.one_render:
-        ladder, target, inputs = one_render_ladder(ladder, target, bool(withheld))
+        ladder, target, inputs = one_render_ladder(ladder, target, bool(withheld), cfg.one_render_kind)
+        learn = ONE_RENDER_FITS[cfg.one_render_kind][2]
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
                           minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,
                           seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command,
-                          target=ch.REST_TARGET if cfg.learn_rest else None, also_init=also, inputs=inputs)
+                          target=learn, also_init=also, inputs=inputs)
     if ladder is not None:  # [] is a choice: only the starting checkpoint, fine-tuned
         mcfg.ladder = [list(r) for r in ladder]
     if cfg.crop:
@@ -501,18 +528,18 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
 # ------------------------------------------------------------------------------------------------- bake
 
 def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None,
-               rest_samples: int = 0, one_render: int = 0) -> None:
+               rest_samples: int = 0, one_render: int = 0, one_render_kind: str = "local") -> None:
     """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
     a child process (the baker resumes a half-done folder). The baker stays in this process's group and dies
     with it (runtime/launcher.py), so cancelling the fit ends the baker too. ``rest_samples``: the views also
     hold EEVEE's rest at that many samples (a fit that learns the rest). ``one_render``: a GI-off one-render bake
-    (``cli.py bake --gi-samples N --one-render local``) at that many samples."""
+    (``cli.py bake --gi-samples N --one-render local``, or ``one_render_kind``) at that many samples."""
     from ..runtime import launcher
     cmd = launcher.cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
                                "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
     cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
     if one_render:
-        cmd += ["--gi-samples", str(int(one_render)), "--one-render", "local"]
+        cmd += ["--gi-samples", str(int(one_render)), "--one-render", one_render_kind]
     elif rest_samples:
         cmd += ["--rest-samples", str(int(rest_samples))]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")

@@ -193,7 +193,7 @@ class RenderSession:
         self.history = render_temporal.History(self) if self.temporal else None
         # a shot fit's lightmap beside the model (model/infer/lightmap.py): blended into the diffuse part
         from ...model.infer import lightmap
-        self.lightmap = lightmap.load_beside(self.model_path) if ch.adds_rest(self.target) else None
+        self.lightmap = lightmap.load_beside(self.model_path) if ch.adds_part(self.target) else None
         if self.lightmap is not None:
             self.groups = tuple(dict.fromkeys(self.groups + self.lightmap.known))  # the direct light it adds back
             log(f"lightmap {lightmap.path_for(self.model_path).name}: weight {self.lightmap.lam:g}"

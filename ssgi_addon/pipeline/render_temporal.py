@@ -129,7 +129,7 @@ class History:
         """What the prediction is divided by to give light: the albedo for a diffuse-part model; ones for a
         whole-image model (its image is blended as it is)."""
         from ...model import channels as ch
-        if ch.adds_rest(self.s.target):
+        if ch.adds_part(self.s.target):
             return groups["albedo"]
         return np.ones(groups["albedo"].shape[:2] + (3,), np.float32)
 

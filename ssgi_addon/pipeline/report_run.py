@@ -69,8 +69,9 @@ def _needs_world(pred) -> bool:
 
 
 def _diffuse(pred) -> bool:
-    """A model that predicts the diffuse part: its image is prediction + EEVEE's own rest (infer/compose.py)."""
-    return ch.adds_rest(pred.target)
+    """A model that predicts a part: its image is prediction + EEVEE's own rest, or + EEVEE's GI-off Combined image
+    for a ref_combined model (infer/compose.py)."""
+    return ch.adds_part(pred.target)
 
 
 @dataclass(kw_only=True)

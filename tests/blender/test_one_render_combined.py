@@ -1,0 +1,141 @@
+"""Issue 15, item 4: GI-off one-render models that read the render's Combined image instead of its Diffuse Direct pass
+(session 26, docs/one_render.md). Such a frame is the same one EEVEE render as a ``local`` model's (ray tracing and
+fast GI off, the emitter proxies on) with one pass fewer: no Diffuse Direct, so no rest. ``cli.py fit --one-render
+combined`` bakes the views of that render with its Combined image (``eevee_combined``) and fits scratch networks with
+head ``residual_combined`` on target ``ref_combined``; the node composes EEVEE's image + the prediction. Real EEVEE and
+Cycles at tiny sizes."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ..conftest import ROOT, run_cli, run_py, save_shot
+
+PASSES = r'''
+import json, sys
+import numpy as np
+import OpenEXR
+import bpy
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import artist_scenes
+from ssgi.ssgi_addon.blender import passes
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+sc = bpy.context.scene
+artist_scenes.build_cornell_emissive(sc)
+artist_scenes.render_settings(sc, (64, 36))
+sc.eevee.taa_render_samples = 2
+sc.eevee.use_raytracing = sc.eevee.use_fast_gi = True   # the artist's: the GI-off call switches both off
+
+def written(groups):
+    """(groups, the passes of the render's read-back file, the renders made)"""
+    with passes.keep_render_file() as kept:
+        out = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2)
+    names = {c.name.split(".")[-2] if c.name.count(".") else c.name
+             for part in OpenEXR.File(kept.path, header_only=True).parts for c in part.header["channels"]}
+    kept.discard()
+    return out, sorted(names), sorted(passes.last_timings)
+
+comb, comb_passes, comb_renders = written(("albedo", "normal", "depth", "emission", "eevee_combined", "surround"))
+local, local_passes, _ = written(("albedo", "normal", "depth", "emission", "eevee_local", "surround", "rest"))
+geo = comb["depth"][..., 0] < 0.999 * sc.camera.data.clip_end
+recomposed = local["rest"] + local["albedo"] * local["eevee_local"]
+print("RESULT", json.dumps({
+    "renders": comb_renders, "groups": sorted(comb), "passes": comb_passes, "local_passes": local_passes,
+    "vs_beauty": float(np.abs(comb["eevee_combined"] - comb["beauty"][..., :3]).max()),
+    "vs_local": float(np.abs(comb["eevee_combined"] - recomposed).max()),
+    "mean": float(comb["eevee_combined"][geo].mean()),
+    "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi]}))
+'''
+
+
+def test_the_combined_one_render_writes_no_diffuse_direct_pass_and_gives_the_local_renders_image():
+    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + PASSES, timeout=900)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert res["renders"] == ["rest", "surround"], res["renders"]  # one EEVEE render (surround: ray casts)
+    assert "rest" not in res["groups"] and "eevee_combined" in res["groups"], res["groups"]
+    # the pass the local model reads and this one does not: the render writes one pass fewer
+    assert "DiffDir" in res["local_passes"] or "Diffuse Direct" in " ".join(res["local_passes"]), res["local_passes"]
+    assert not any("DiffDir" in n or "Diffuse Direct" in n for n in res["passes"]), res["passes"]
+    assert res["vs_beauty"] == 0.0, res  # eevee_combined is the render's Combined image ...
+    # ... which is the local render's rest + albedo x its Diffuse Direct light (the same GI-off render, proxies on)
+    assert res["vs_local"] <= 1e-4 and res["mean"] > 0.05, res
+    assert res["rt_after"] == [True, True], res
+
+
+def test_a_combined_one_render_fit_reads_the_combined_image_and_no_diffuse_direct():
+    from ssgi.model import channels as ch
+    from ssgi.model.errors import UserError
+    from ssgi.model.infer import lightmap
+    from ssgi.ssgi_addon.blender import views
+    from ssgi.ssgi_addon.pipeline import fit as pfit
+    from ssgi.ssgi_addon.pipeline.bake import one_render_bake_groups
+
+    ladder, _target, inputs = pfit.one_render_ladder(None, None, shot=True, kind="combined")
+    assert all(r[2]["head"] == "residual_combined" for r in ladder)
+    spec = ch.parse_spec(inputs)
+    baked = one_render_bake_groups("combined")
+    assert set(ch.required_groups(spec)) <= set(baked) and "eevee_local" not in spec, (spec, baked)
+    assert {"eevee_combined", "eevee_local", "rest", "gloss"} <= set(baked)  # (the fit's report and comparisons)
+    assert pfit.ONE_RENDER_FITS["combined"][2] == ch.COMBINED_TARGET
+    assert lightmap.known_for(ch.required_groups(spec)) == ()  # no known light: the field is the light it adds
+    assert pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True).one_render_kind == "local"
+    with pytest.raises(UserError, match="--one-render bogus"):
+        pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render="bogus").check()
+    # views of the two kinds are not the same views
+    plan = {"scene": "S", "frames": [1], "cameras": ["c"], "size": [8, 8], "seed": 0, "one_render": 2}
+    blend = ROOT / "blender_manifest.toml"  # (any file: the tag hashes its bytes)
+    assert views.views_tag(blend, plan) != views.views_tag(blend, plan | {"one_render_kind": "combined"})
+
+
+NODE = r'''
+import json, sys
+import numpy as np
+import bpy
+from ssgi.ssgi_addon.blender.compositor import setup_scene
+from ssgi.ssgi_addon.pipeline.render import RenderSession
+
+model, blend = sys.argv[1], sys.argv[2]
+bpy.ops.wm.open_mainfile(filepath=blend)
+sc = bpy.context.scene
+setup_scene(sc, model)
+s = RenderSession(sc, frames=[5], model=model, write=False, keep_groups=True)
+s.run()
+r = s.results[0]
+g = r["groups"]
+geo = g["depth"][..., 0] < 0.999 * sc.camera.data.clip_end
+print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": sorted(g),
+                            "finite": bool(np.isfinite(r["prediction"]).all()), "mean": float(r["prediction"].mean()),
+                            "added": float((r["prediction"] - g["eevee_combined"])[geo].mean()),
+                            "lightmap": s.lightmap is not None, "reflmap": s.reflmap is not None}))
+'''
+
+SHOT = (1, 20)
+
+
+@pytest.mark.timeout(1800)
+def test_a_combined_one_render_shot_fit_beats_eevee_and_the_node_renders_it_without_diffuse_direct(tmp_path):
+    blend = tmp_path / "cornell.blend"
+    save_shot("cornell_emissive", blend, (96, 54), SHOT[1])
+    model = tmp_path / "shot.pt"
+    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
+                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render", "combined",
+                "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--json", timeout=1500)
+    summary = json.loads(p.stdout)
+    import torch
+    ck = torch.load(model, map_location="cpu", weights_only=False)
+    arch = ck["arch"]
+    assert arch["head"] == "residual_combined" and arch["target"] == "ref_combined", arch
+    assert {"albedo", "eevee_combined"} <= set(arch["inputs"]) and "eevee_local" not in arch["inputs"], arch
+    m = json.loads(next((model.parent / "shot.fit").glob("views-*/manifest.json")).read_text())
+    assert m["settings"]["eevee"]["one_render"]["kind"] == "combined", m["settings"]["eevee"]["one_render"]
+    assert not model.with_suffix(".reflmap.npz").exists()  # no rest to correct in its frames
+    w = summary["withheld"]["methods"]
+    assert w["fitted"]["psnr"] > w["eevee_gi"]["psnr"] + 3.0, (w["fitted"]["psnr"], w["eevee_gi"]["psnr"])
+    p = run_py(NODE, str(model), str(blend), timeout=600)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert set(res["renders"]) <= {"rest", "surround"} and "rest" in res["renders"], res["renders"]
+    assert not set(res["groups"]) & {"rest", "eevee_local", "direct", "world", "eevee"}, res["groups"]
+    # the image is EEVEE's GI-off render with light added (the panel's bounce light it lacks)
+    assert res["finite"] and res["added"] > 0.005, res
