@@ -68,6 +68,13 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="Fit a model whose frames are one EEVEE render with ray tracing "
                                                        "and fast GI off: the fitted network gives the GI, a frame costs "
                                                        "less than EEVEE's own GI (cli.py fit --one-render)")
+    fit_one_render_kind: bpy.props.EnumProperty(
+        name="Reads", default="local",
+        items=[("local", "Diffuse Direct", "The one render's Diffuse Direct pass (composed with its rest; a glossy shot "
+                                           "also gets a reflection map)"),
+               ("combined", "Combined Image", "The one render's Combined image: the frames render one pass fewer (no "
+                                              "Diffuse Direct, no reflection map; cli.py fit --one-render combined)")],
+        description="What a One Render model reads of its render")
     fit_reflmap: bpy.props.BoolProperty(name="Shot Reflection Map", default=True,
                                         description="With Fit the Shot: when the scene has mirrors or metal, also fit a "
                                                     "world-space correction of EEVEE's reflections beside the model "

@@ -243,7 +243,8 @@ def report_markdown(rep: dict, model) -> str:
               "|---|" + "---:|" * len(m["val_psnr"])]
         tried = m.get("tried") or {"+".join(m.get("known", [])) or "none": m}
         for name, t in tried.items():  # the whole light ("none"), and the light minus the frame's direct light
-            what = "the whole diffuse light" if name == "none" else f"the light minus the frame's {name}"
+            what = ("the light the model adds to EEVEE's GI-off image (signed)" if m.get("target") == ch.COMBINED_TARGET
+                    else "the whole diffuse light" if name == "none" else f"the light minus the frame's {name}")
             kept = " (kept)" if name == ("+".join(m.get("known", [])) or "none") else ""
             L += [f"| {what}{kept}: val PSNR (dB) | " + " | ".join(_n(v) for v in t["val_psnr"].values()) + " |"]
         if m.get("known"):

@@ -441,7 +441,8 @@ def has_glossy(scene) -> bool:
 
 
 WITHHELD_HOW = ("The fitted model through RenderSession (the SSGI node's render path: EEVEE passes at the file's "
-                "samples, working resolution, compose with EEVEE's own rest); the generic model on the same passes "
+                "samples, working resolution, compose with EEVEE's own rest, or a ref_combined model's with EEVEE's GI-off "
+                "Combined image); the generic model on the same passes "
                 "through the same predictor wrapper and compose.")
 
 

@@ -286,6 +286,14 @@ job = jobs.get("fit")
 r["cmd_nolm"] = job.cmd
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
+s.fit_learn_rest = False
+s.fit_one_render = True
+s.fit_one_render_kind = "combined"
+assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}
+job = jobs.get("fit")
+r["cmd_one"] = job.cmd
+bpy.ops.ssgi.cancel_job(job="fit")
+job.wait(60)
 from tests import ui_recorder
 from ssgi.panels.fit_panel import SSGI_PT_fit
 r["props"] = ui_recorder.draw(SSGI_PT_fit).props()
@@ -300,6 +308,10 @@ json.dump(r, open({str(res)!r}, "w"))
     assert r["cmd"][i + 1] == "1-20" and "--learn-rest" in r["cmd"]
     assert "--no-lightmap" not in r["cmd"] and "--no-lightmap" in r["cmd_nolm"]  # the shot lightmap: on by default
     assert "--no-reflmap" not in r["cmd"] and "--no-reflmap" in r["cmd_nolm"]  # the reflection map too
+    # a one-render fit that reads the render's Combined image (no Diffuse Direct pass in its frames)
+    i = r["cmd_one"].index("--one-render")
+    assert r["cmd_one"][i + 1] == "combined" and "--one-render" not in r["cmd"]
+    assert "fit_one_render_kind" in r["props"]
     assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest", "fit_lightmap",
             "fit_reflmap"} <= set(r["props"])
     assert "fit_shot" in r["props_off"] and "fit_frame_start" not in r["props_off"] and "fit_lightmap" not in r["props_off"]
