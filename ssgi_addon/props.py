@@ -73,7 +73,7 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
         items=[("local", "Diffuse Direct", "The one render's Diffuse Direct pass (composed with its rest; a glossy shot "
                                            "also gets a reflection map)"),
                ("combined", "Combined Image", "The one render's Combined image: the frames render one pass fewer (no "
-                                              "Diffuse Direct, no reflection map; cli.py fit --one-render combined)")],
+                                              "Diffuse Direct; cli.py fit --one-render combined)")],
         description="What a One Render model reads of its render")
     fit_reflmap: bpy.props.BoolProperty(name="Shot Reflection Map", default=True,
                                         description="With Fit the Shot: when the scene has mirrors or metal, also fit a "

@@ -38,6 +38,10 @@ import numpy as np
 from ..errors import UserError
 from . import lightmap as lm
 
+# a ref_combined model's albedo floor (network.ALBEDO_FLOOR, kept here: this module runs without torch): at or above
+# it the network acts on a pixel, below it the reflection map takes over (apply_combined)
+ALBEDO_FLOOR = 0.05
+
 NFREQ_POS = 3  # Fourier octaves of the position (pi * 2**i over [-1, 1]): a mirror's reflection varies little
 NFREQ_DIR = 4  # ... of the reflection direction (a unit vector): walls, a panel, a room's corners
 GLOSS_MIN = 0.05  # a pixel is corrected where some channel of its Glossy Color exceeds this
@@ -130,6 +134,18 @@ class ReflectionMap:
         if self.lam <= 0.0:
             return rest
         return (np.asarray(rest, np.float32)[..., :3] + self.correction(groups, M, P)).astype(np.float32)
+
+    def apply_combined(self, combined: np.ndarray, groups: dict, M, P) -> np.ndarray:
+        """A ref_combined model's base image (EEVEE's GI-off Combined, HxWx3) corrected where its network cannot
+        act: the correction x (1 - max albedo / ALBEDO_FLOOR, clipped to [0, 1]), all of it where the albedo is black
+        (metal, mirrors: the model's image is EEVEE's there), none where the albedo reaches the head's floor (the
+        network learned Cycles' image there, reflections included: corrected again, they would count twice)."""
+        c = np.asarray(combined, np.float32)[..., :3]
+        if self.lam <= 0.0:
+            return c
+        alb = np.nan_to_num(np.asarray(groups["albedo"], np.float32)[..., :3]).max(-1, keepdims=True)
+        w = np.clip(1.0 - alb / ALBEDO_FLOOR, 0.0, 1.0)
+        return (c + w * self.correction(groups, M, P)).astype(np.float32)
 
     # --- the file ---
 

@@ -130,6 +130,7 @@ def register_cli(sub) -> None:
                         "EEVEE's own GI render at the same samples (issue 15, docs/one_render.md); the views hold that "
                         "render's passes and the fit trains small networks from scratch on them. KIND: local (the "
                         "default) reads its Diffuse Direct pass; combined reads its Combined image instead, so the "
-                        "frames render one pass fewer (no reflection map: there is no rest to correct)")
+                        "frames render one pass fewer (a glossy shot's reflection map then corrects only where "
+                        "the albedo is black: metal, mirrors)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)

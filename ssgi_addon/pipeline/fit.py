@@ -286,9 +286,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     fit_minutes = max(left, floor) / 60.0
     lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
     # (not with --learn-rest: that model learns Cycles minus EEVEE's own rest, which a corrected rest would count twice)
-    # (nor for a ref_combined model: its frames have no rest to correct)
+    # (a ref_combined model's corrects EEVEE's GI-off image only where the albedo is black: reflmap.apply_combined)
     glossy = (bool(cameras) and cfg.reflmap and not cfg.learn_rest and plan.get("glossy", True)
-              and cfg.one_render_kind != "combined"
               and "gloss" in dataset_folder.stored_groups(dataset_folder.open_folder(data_dir)))
     reflmap_s = min(REFLMAP_MAX_S, REFLMAP_SHARE * 60.0 * fit_minutes) if glossy else 0.0
     fit_minutes -= (lightmap_s + reflmap_s) / 60.0

@@ -200,7 +200,8 @@ class RenderSession:
                 + (f", known light {'+'.join(self.lightmap.known)}" if self.lightmap.known else ""))
         # ... and its reflection map (model/infer/reflmap.py): corrects EEVEE's rest where the Glossy Color is
         from ...model.infer import reflmap
-        self.reflmap = reflmap.load_beside(self.model_path) if ch.adds_rest(self.target) else None
+        # (a ref_combined model's corrects EEVEE's GI-off image where the albedo is black: reflmap.apply_combined)
+        self.reflmap = reflmap.load_beside(self.model_path) if ch.adds_part(self.target) else None
         if self.reflmap is not None:
             self.groups = tuple(dict.fromkeys(self.groups + ("gloss",)))
             log(f"reflection map {reflmap.path_for(self.model_path).name}: weight {self.reflmap.lam:g}")
@@ -229,15 +230,21 @@ class RenderSession:
         if self.reflmap is not None:  # EEVEE's own rest stays beside the corrected one (rest_eevee: the fit report)
             from ..blender.views import camera_matrices
             c = camera_matrices(self.scene)
-            groups["rest_eevee"] = groups["rest"]
-            groups["rest"] = self.reflmap.apply(groups["rest"], groups, c["M"], c["P"])
+            if self.target == ch.COMBINED_TARGET:  # the image composed on; the network reads EEVEE's own
+                groups["eevee_combined_eevee"] = groups["eevee_combined"]
+                groups["eevee_combined"] = self.reflmap.apply_combined(groups["eevee_combined"], groups, c["M"], c["P"])
+            else:
+                groups["rest_eevee"] = groups["rest"]
+                groups["rest"] = self.reflmap.apply(groups["rest"], groups, c["M"], c["P"])
         return groups
 
     def predict_network(self, groups: dict):
         """The network's prediction of a frame's passes (at the working resolution, brought back), without the
         lightmap."""
         want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
-        return self.predictor.predict({g: groups[g] for g in dict.fromkeys(want) if g in groups})
+        # (a ref_combined model reads EEVEE's own image, not the one its reflection map corrected)
+        src = groups | ({"eevee_combined": groups["eevee_combined_eevee"]} if "eevee_combined_eevee" in groups else {})
+        return self.predictor.predict({g: src[g] for g in dict.fromkeys(want) if g in src})
 
     def _predict(self, groups: dict):
         pred = self.predict_network(groups)

@@ -130,12 +130,14 @@ def test_a_combined_one_render_shot_fit_beats_eevee_and_the_node_renders_it_with
     assert {"albedo", "eevee_combined"} <= set(arch["inputs"]) and "eevee_local" not in arch["inputs"], arch
     m = json.loads(next((model.parent / "shot.fit").glob("views-*/manifest.json")).read_text())
     assert m["settings"]["eevee"]["one_render"]["kind"] == "combined", m["settings"]["eevee"]["one_render"]
-    assert not model.with_suffix(".reflmap.npz").exists()  # no rest to correct in its frames
+    # the mirror ball: EEVEE's GI-off image is corrected where the albedo is black, by the shot's reflection map
+    assert model.with_suffix(".reflmap.npz").exists()
     w = summary["withheld"]["methods"]
     assert w["fitted"]["psnr"] > w["eevee_gi"]["psnr"] + 3.0, (w["fitted"]["psnr"], w["eevee_gi"]["psnr"])
     p = run_py(NODE, str(model), str(blend), timeout=600)
     res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
     assert set(res["renders"]) <= {"rest", "surround"} and "rest" in res["renders"], res["renders"]
     assert not set(res["groups"]) & {"rest", "eevee_local", "direct", "world", "eevee"}, res["groups"]
+    assert {"gloss", "eevee_combined_eevee"} <= set(res["groups"]) and res["reflmap"], res  # (EEVEE's own kept)
     # the image is EEVEE's GI-off render with light added (the panel's bounce light it lacks)
     assert res["finite"] and res["added"] > 0.005, res

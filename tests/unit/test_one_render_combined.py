@@ -146,3 +146,25 @@ def test_a_ref_combined_model_exports_to_onnx_and_runs_there_as_in_torch(tmp_pat
     assert b.runtime == "onnx" and b.target == ch.COMBINED_TARGET
     ia, ib = (compose.compose(p.predict(g), g, ch.COMBINED_TARGET) for p in (a, b))
     assert np.allclose(ia, ib, rtol=1e-4, atol=1e-5) and not np.allclose(ia, g["eevee_combined"], atol=1e-3)
+
+
+def test_the_reflection_map_corrects_a_combined_models_image_only_where_the_network_cannot():
+    from ssgi.model.infer import reflmap
+    from ssgi.model.learn import network
+    assert reflmap.ALBEDO_FLOOR == network.ALBEDO_FLOOR  # (kept in both: reflmap runs without torch)
+
+    class Fixed(reflmap.ReflectionMap):
+        def __init__(self):
+            self.lam = 1.0
+
+        def correction(self, groups, M, P, lam=None):
+            return np.full(np.shape(groups["albedo"]), 0.4, np.float32)
+
+    alb = np.zeros((1, 4, 3), np.float32)
+    alb[0, 1] = 0.025  # an anti-aliased mirror edge: half the floor
+    alb[0, 2] = 0.05
+    alb[0, 3] = 0.6
+    c = np.full((1, 4, 3), 0.1, np.float32)
+    out = Fixed().apply_combined(c, {"albedo": alb}, None, None)
+    # all of it on the mirror, half on its edge, none where the network learned Cycles' reflections itself
+    assert np.allclose(out[0, :, 0], [0.5, 0.3, 0.1, 0.1])
