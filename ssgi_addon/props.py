@@ -67,7 +67,8 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
     fit_one_render: bpy.props.BoolProperty(name="One Render (no EEVEE GI)", default=False,
                                            description="Fit a model whose frames are one EEVEE render with ray tracing "
                                                        "and fast GI off: the fitted network gives the GI, a frame costs "
-                                                       "less than EEVEE's own GI (cli.py fit --one-render)")
+                                                       "about what EEVEE's own GI costs at the same samples (measured on "
+                                                       "Mesa, docs/one_render.md; cli.py fit --one-render)")
     fit_one_render_kind: bpy.props.EnumProperty(
         name="Reads", default="local",
         items=[("local", "Diffuse Direct", "The one render's Diffuse Direct pass (composed with its rest; a glossy shot "

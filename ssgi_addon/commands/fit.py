@@ -126,7 +126,7 @@ def register_cli(sub) -> None:
     p.add_argument("--one-render", nargs="?", const="local", default=None, choices=("local", "combined"),
                    metavar="KIND",
                    help="fit a GI-off one-render model: each frame of the node is then ONE EEVEE render with ray "
-                        "tracing and fast GI off (the network and the shot's lightmap give the GI), cheaper than "
+                        "tracing and fast GI off (the network and the shot's lightmap give the GI), at about the cost of "
                         "EEVEE's own GI render at the same samples (issue 15, docs/one_render.md); the views hold that "
                         "render's passes and the fit trains small networks from scratch on them. KIND: local (the "
                         "default) reads its Diffuse Direct pass; combined reads its Combined image instead, so the "
