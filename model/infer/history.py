@@ -61,12 +61,12 @@ def _rounded(entry: dict) -> dict:
     return out
 
 
-def make_entry(part: np.ndarray, groups: dict, light_albedo: np.ndarray | None = None) -> dict:
+def make_entry(part: np.ndarray, groups: dict, light_albedo: np.ndarray | None = None, signed: bool = False) -> dict:
     """A frame's history entry from its stateless diffuse part and its G-buffer (needs albedo; takes the
     GUIDES it finds). ``light_albedo``: what the part is divided by (default the albedo; ones for a
     whole-image model, whose prediction is blended as it is)."""
     from .temporal import light_of
-    e = {"light": light_of(part, groups["albedo"] if light_albedo is None else light_albedo)} \
+    e = {"light": light_of(part, groups["albedo"] if light_albedo is None else light_albedo, signed)} \
         | {g: groups[g] for g in GUIDES if g in groups}
     for g in DIRECT_LIGHT:
         if g in groups:

@@ -138,10 +138,11 @@ def reproject(prev_img: np.ndarray, vector: np.ndarray, prev_guides: dict | None
     return out["img"], w
 
 
-def light_of(part: np.ndarray, albedo: np.ndarray) -> np.ndarray:
-    """The diffuse light of a predicted diffuse part (part / albedo, grey where an albedo channel is ~0)."""
+def light_of(part: np.ndarray, albedo: np.ndarray, signed: bool = False) -> np.ndarray:
+    """The diffuse light of a predicted diffuse part (part / albedo, grey where an albedo channel is ~0). ``signed``:
+    a ref_combined model's part, the light it adds to EEVEE's image, kept negative where it takes light away."""
     from .workres import diffuse_light
-    return diffuse_light(part, albedo)[0]
+    return diffuse_light(part, albedo, signed=signed)[0]
 
 
 def reproject_window(history: list[dict], vector: np.ndarray, cur: dict, tol: Tolerances = Tolerances()):
@@ -177,7 +178,7 @@ def neighbourhood(light: np.ndarray, radius: int = 1) -> tuple[np.ndarray, np.nd
 
 def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, np.ndarray]],
           weights=None, geometry: np.ndarray | None = None, cut_coverage: float = CUT_COVERAGE,
-          clamp: bool = CLAMP) -> np.ndarray:
+          clamp: bool = CLAMP, signed: bool = False) -> np.ndarray:
     """Frame t's diffuse part blended with the reprojected diffuse light of earlier frames.
 
     ``history``: [(light HxWx3, valid HxW in [0, 1])], t-1 first; ``weights``: each history frame's weight
@@ -188,7 +189,9 @@ def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, 
     taken as a cut and ``part`` comes back unchanged. With ``clamp`` each history light is first clamped to the
     range of the current light over the 3 x 3 pixels around (the neighbourhood clamp of temporal anti-aliasing):
     history can smooth what flickers within the present frame's local range, never drag a moved shadow or a
-    change of light along (lag); a history equal to the present is inside that range and stays exact."""
+    change of light along (lag); a history equal to the present is inside that range and stays exact. ``signed``: a
+    ref_combined model's part (the light it adds to EEVEE's image, negative where it takes light away: not clamped at
+    0, which brightened the contact shadows an unshadowed emitter proxy leaves too bright; session 26)."""
     part = np.asarray(part, np.float32)
     if not history:
         return part
@@ -197,7 +200,7 @@ def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, 
     if not geo.any() or float(np.mean(history[0][1][geo] > 0.5)) < cut_coverage:
         return part
     ws = list(weights) if weights is not None else [HISTORY_WEIGHT] * len(history)
-    cur32 = light_of(part, albedo)
+    cur32 = light_of(part, albedo, signed)
     lo, hi = neighbourhood(cur32) if clamp else (None, None)
     cur = cur32.astype(np.float64)
     num = np.zeros(cur.shape, np.float64)
@@ -209,7 +212,8 @@ def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, 
         den += wv
     change = (num / den[..., None]).astype(np.float32)
     out = part + albedo * change
-    np.maximum(out, 0.0, out=out)
+    if not signed:
+        np.maximum(out, 0.0, out=out)
     used = den > 1.0
     return np.where(used[..., None], out, part)
 

@@ -102,7 +102,7 @@ class History:
         if e is None:
             t0 = time.perf_counter()
             groups, part = self.s._stateless(frame)
-            e = self.cache.put(frame, hist.make_entry(part, groups, self._albedo(groups)))
+            e = self.cache.put(frame, hist.make_entry(part, groups, self._albedo(groups), self._signed))
             info.setdefault("history_rendered", []).append(frame)
             info["t_history_render"] = info.get("t_history_render", 0.0) + time.perf_counter() - t0
         return e
@@ -116,14 +116,20 @@ class History:
     def apply(self, frame: int, part, groups: dict, entries: list[dict], info: dict):
         """Cache frame ``frame``'s own stateless entry; return its blended diffuse part."""
         t0 = time.perf_counter()
-        own = self.cache.put(frame, hist.make_entry(part, groups, self._albedo(groups)))
+        own = self.cache.put(frame, hist.make_entry(part, groups, self._albedo(groups), self._signed))
         cur = {g: own[g] for g in ("depth", "normal", "albedo", "direct_light") if g in own}
         warped = tp.reproject_window(entries, own["vector"], cur) if entries else []
         out = tp.blend(part, self._albedo(groups), warped, self.weights[:len(warped)],
-                       geometry=groups["albedo"][..., :3].max(-1) > tp.EPS)
+                       geometry=groups["albedo"][..., :3].max(-1) > tp.EPS, signed=self._signed)
         info["t_temporal"] = time.perf_counter() - t0
         info["history_coverage"] = [float((w > 0.5).mean()) for _, w in warped]
         return out
+
+    @property
+    def _signed(self) -> bool:
+        """A ref_combined model's part may be negative (the light it takes from EEVEE's image): kept so."""
+        from ...model import channels as ch
+        return self.s.target == ch.COMBINED_TARGET
 
     def _albedo(self, groups: dict):
         """What the prediction is divided by to give light: the albedo for a diffuse-part model; ones for a

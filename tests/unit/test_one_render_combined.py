@@ -168,3 +168,18 @@ def test_the_reflection_map_corrects_a_combined_models_image_only_where_the_netw
     out = Fixed().apply_combined(c, {"albedo": alb}, None, None)
     # all of it on the mirror, half on its edge, none where the network learned Cycles' reflections itself
     assert np.allclose(out[0, :, 0], [0.5, 0.3, 0.1, 0.1])
+
+
+def test_the_temporal_blend_keeps_a_combined_models_negative_light():
+    from ssgi.model.infer import temporal as tp
+    alb = np.full((8, 8, 3), 0.5, np.float32)
+    part = np.full((8, 8, 3), -0.2, np.float32)  # the model takes light away (a contact shadow EEVEE missed)
+    part[:, 4:] = 0.3
+    hist = [(tp.light_of(part, alb, signed=True), np.ones((8, 8), np.float32))]
+    out = tp.blend(part, alb, hist, signed=True)
+    assert np.allclose(out, part, atol=1e-6)  # a history equal to the present: the part bit for bit, negative kept
+    older = [(np.full((8, 8, 3), -0.6, np.float32), np.ones((8, 8), np.float32))]
+    mixed = tp.blend(part, alb, older, clamp=False, signed=True)
+    assert (mixed[:, :4] < part[:, :4]).all()  # blended towards the darker history, below 0
+    # unsigned (a diffuse-part model), the same negative part would be clamped to 0: what darkened nothing before
+    assert (tp.blend(part, alb, hist)[:, :4] == 0).all()
