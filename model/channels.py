@@ -187,6 +187,9 @@ TARGET_GROUP = "ref"  # the image every method is scored against, and the target
 DIFFUSE_TARGET = "ref_diffuse"
 REST_TARGET = "ref_minus_rest"
 COMBINED_TARGET = "ref_combined"
+# the albedo a ref_combined model's base light C / albedo is divided by at least (network.Head "residual_combined");
+# below it the shot's reflection map takes over from the network (reflmap.ReflectionMap.apply_combined)
+COMBINED_ALBEDO_FLOOR = 0.05
 # the stored groups each target is read from (the others are stored groups themselves)
 TARGET_SOURCES: dict[str, tuple[str, ...]] = {REST_TARGET: ("ref", "rest"), COMBINED_TARGET: ("ref", "eevee_combined")}
 
@@ -214,6 +217,12 @@ def base_group(target: str) -> str | None:
     prediction is the whole image)."""
     t = check_target(target)
     return "rest" if t in (DIFFUSE_TARGET, REST_TARGET) else "eevee_combined" if t == COMBINED_TARGET else None
+
+
+def signed_part(target: str) -> bool:
+    """Whether a model's predicted part may be negative (a ref_combined model's: the light it takes from EEVEE's
+    image), so that the working-resolution upsample, the lightmap and the temporal blend keep it signed."""
+    return check_target(target) == COMBINED_TARGET
 
 
 def adds_part(target: str) -> bool:

@@ -143,7 +143,7 @@ def parity(a, b, sizes=((61, 37, None), (203, 131, 64)), seed: int = 0) -> dict:
     for w, h, tile in sizes:
         g = hdr_groups(w, h, seed)
         ya, yb = a.predict(g, tile=tile), b.predict(g, tile=tile)
-        if getattr(a, "target", None) == ch.COMBINED_TARGET:
+        if ch.signed_part(getattr(a, "target", ch.TARGET_GROUP)):
             ya, yb = ya + g["eevee_combined"][..., :3], yb + g["eevee_combined"][..., :3]
         worst = max(worst, rel_diff(ya, yb))
     return dict(max_rel=worst, sizes=[f"{w}x{h}" + (f" tile {t}" if t else "") for w, h, t in sizes])

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import channels as ch
 from ..errors import UserError
 
 NFREQ = 6  # Fourier octaves of the position (pi * 2**i, i < NFREQ, over [-1, 1])
@@ -232,7 +233,7 @@ class Lightmap:
         self.known = tuple(known)  # groups added back at render time (module doc); () = the field is the light
         # a ref_combined model's field: the light its prediction adds to EEVEE's GI-off image, signed (recorded as
         # the meta's target when saved)
-        self.signed = bool(signed) if signed is not None else (dict(meta or {}).get("target") == "ref_combined")
+        self.signed = bool(signed) if signed is not None else ch.signed_part(dict(meta or {}).get("target") or ch.TARGET_GROUP)
         bad = [k for k in self.known if not any(k in alt for alt in KNOWN_CANDIDATES)]
         if bad:
             raise UserError(f"lightmap: unknown known-light group(s) {', '.join(bad)}")

@@ -35,12 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import channels as ch
 from ..errors import UserError
 from . import lightmap as lm
 
-# a ref_combined model's albedo floor (network.ALBEDO_FLOOR, kept here: this module runs without torch): at or above
-# it the network acts on a pixel, below it the reflection map takes over (apply_combined)
-ALBEDO_FLOOR = 0.05
+# a ref_combined model's albedo floor: at or above it the network acts on a pixel, below it the reflection map takes
+# over (apply_combined)
+ALBEDO_FLOOR = ch.COMBINED_ALBEDO_FLOOR
 
 NFREQ_POS = 3  # Fourier octaves of the position (pi * 2**i over [-1, 1]): a mirror's reflection varies little
 NFREQ_DIR = 4  # ... of the reflection direction (a unit vector): walls, a panel, a room's corners

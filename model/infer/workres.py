@@ -413,17 +413,14 @@ class WorkingResolution:
         part = self.inner.predict(lo, tile=tile)
         t2 = time.perf_counter()
         target = getattr(self.inner, "target", ch.DIFFUSE_TARGET)
-        signed = target == ch.COMBINED_TARGET
+        signed = ch.signed_part(target)
         if ch.adds_part(target):
             out = upsample_part(part, lo, groups, method=self.method, residual=self.residual and not signed,
                                 factor=f, threads=self.threads, signed=signed)
-            if signed:
-                self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=time.perf_counter() - t2)
-                return out
         else:
             from ..images import geometry_mask
             conf = geometry_mask(lo["depth"], lo["normal"]).astype(np.float32)[..., None]
             out = upsample_light(part, lo, groups, weight_lo=conf, method=self.method, factor=f,
                                  threads=self.threads)
         self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=time.perf_counter() - t2)
-        return np.maximum(out, 0.0)
+        return out if signed else np.maximum(out, 0.0)

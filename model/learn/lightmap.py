@@ -189,7 +189,7 @@ def fit_lightmap(data_dir, cameras: dict, train, val, predictor, target: str, se
         t1 = time.perf_counter()
         pos, nrm, y = points(data_dir, cameras, train, target, kn)
         field, stats = train_field(pos, nrm, y, max(left - (time.perf_counter() - t1), 1.0), seed=seed, log=log,
-                                   steps=steps, known=kn, signed=target == ch.COMBINED_TARGET)
+                                   steps=steps, known=kn, signed=ch.signed_part(target))
         lam, scores = choose_weight(field, data_dir, cameras, val, predictor, target)
         name = "+".join(kn) or "none"
         tried[name] = dict(stats, lam=lam, val_psnr={str(k): round(v, 3) for k, v in scores.items()})

@@ -59,7 +59,7 @@ HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
               "residual_local": ("albedo", "eevee_local"),
               # ... and from that render's Combined image alone (no Diffuse Direct pass: target ref_combined)
               "residual_combined": ("albedo", "eevee_combined")}
-ALBEDO_FLOOR = 0.05  # residual_combined: the albedo the base light C / albedo is divided by at least
+ALBEDO_FLOOR = ch.COMBINED_ALBEDO_FLOOR  # residual_combined: the albedo C / albedo is divided by at least
 
 class Head(nn.Module):
     def __init__(self, kind: str, spec: tuple[str, ...]):

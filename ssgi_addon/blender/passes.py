@@ -39,7 +39,8 @@ PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() 
 # input of one-render models; issue 15, docs/one_render.md)
 # eevee_combined: that render's Combined image (RGB), the input of GI-off one-render models without its Diffuse Direct
 # pass (target ref_combined, session 26)
-REST_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local", "eevee_combined")
+DIFFUSE_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")  # (its Diffuse Direct pass: what a rest needs too)
+REST_LIGHT_GROUPS = DIFFUSE_LIGHT_GROUPS + ("eevee_combined",)
 # whether the GI-off one render's emitter proxies cast shadows: no (session 21, docs/one_render.md). On Mesa their
 # shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 at 16 samples (benchmarks/pass_cost.py), and EEVEE's
 # soft shadows at 16 samples are noisy where the network passed the noise on; the network and the shot's lightmap
@@ -594,7 +595,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         last_timings["rest"] = time.perf_counter() - t0
     comb = passes["Combined"]
     combined = np.stack([comb[c] for c in "RGBA"], axis=-1).astype(np.float32)
-    light = _rgb(passes, "Diffuse Direct") if rest or any(g in REST_LIGHT_GROUPS[:2] for g in groups) else None
+    light = _rgb(passes, "Diffuse Direct") if rest or any(g in DIFFUSE_LIGHT_GROUPS for g in groups) else None
     made = (combined[..., :3] - _rgb(passes, "Diffuse Color") * light).astype(np.float32) if rest else None
     if not groups:
         return made, combined
@@ -693,7 +694,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                 passes = timed("raster", _render, scene)
             out.update({g: _group(passes, g) for g in raster})
     # (a ref_combined model's frame: its one render without the Diffuse Direct pass a rest would need)
-    need_rest = not one or "rest" in groups or any(g in REST_LIGHT_GROUPS[:2] for g in groups)
+    need_rest = not one or "rest" in groups or any(g in DIFFUSE_LIGHT_GROUPS for g in groups)
     if with_rest:
         made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed,
                            proxy_sides=sides, rest=need_rest)

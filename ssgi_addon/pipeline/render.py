@@ -230,20 +230,21 @@ class RenderSession:
         if self.reflmap is not None:  # EEVEE's own rest stays beside the corrected one (rest_eevee: the fit report)
             from ..blender.views import camera_matrices
             c = camera_matrices(self.scene)
-            if self.target == ch.COMBINED_TARGET:  # the image composed on; the network reads EEVEE's own
-                groups["eevee_combined_eevee"] = groups["eevee_combined"]
-                groups["eevee_combined"] = self.reflmap.apply_combined(groups["eevee_combined"], groups, c["M"], c["P"])
-            else:
-                groups["rest_eevee"] = groups["rest"]
-                groups["rest"] = self.reflmap.apply(groups["rest"], groups, c["M"], c["P"])
+            # (a ref_combined model's base is EEVEE's GI-off image, corrected where the albedo is black)
+            base = ch.base_group(self.target)
+            fix = self.reflmap.apply_combined if base == "eevee_combined" else self.reflmap.apply
+            groups[f"{base}_eevee"] = groups[base]
+            groups[base] = fix(groups[base], groups, c["M"], c["P"])
         return groups
 
     def predict_network(self, groups: dict):
         """The network's prediction of a frame's passes (at the working resolution, brought back), without the
         lightmap."""
         want = ch.required_groups(self.spec) + ("normal", "depth", "albedo")
-        # (a ref_combined model reads EEVEE's own image, not the one its reflection map corrected)
-        src = groups | ({"eevee_combined": groups["eevee_combined_eevee"]} if "eevee_combined_eevee" in groups else {})
+        # (the network reads EEVEE's own base, not the one the reflection map corrected: a ref_combined model's is an
+        # input)
+        base = ch.base_group(self.target)
+        src = groups | ({base: groups[f"{base}_eevee"]} if f"{base}_eevee" in groups else {})
         return self.predictor.predict({g: src[g] for g in dict.fromkeys(want) if g in src})
 
     def _predict(self, groups: dict):

@@ -129,7 +129,7 @@ class History:
     def _signed(self) -> bool:
         """A ref_combined model's part may be negative (the light it takes from EEVEE's image): kept so."""
         from ...model import channels as ch
-        return self.s.target == ch.COMBINED_TARGET
+        return ch.signed_part(self.s.target)
 
     def _albedo(self, groups: dict):
         """What the prediction is divided by to give light: the albedo for a diffuse-part model; ones for a
