@@ -7,6 +7,7 @@ that a GL abort fails one test and not the whole run.
 from __future__ import annotations
 
 import atexit
+import json
 import os
 import shutil
 import subprocess
@@ -81,6 +82,42 @@ sc = shot_scenes.build({name!r}, {tuple(size)!r}, {int(last_frame)})
 sc.eevee.taa_render_samples = 1
 shot_scenes.save(sc, {str(path)!r})
 ''', timeout=timeout)
+
+
+def cornell_script(samples: int, size: tuple[int, int] = (64, 36)) -> str:
+    """The head of a ``run_py`` script: ROOT, json, sys, numpy as np, bpy and benchmarks/artist_scenes imported, and
+    ``sc`` a factory-empty scene holding artist_scenes' emissive Cornell box (lit only by an emissive ceiling panel, a
+    planar emitter) at ``size`` and ``samples`` EEVEE samples."""
+    return f'''ROOT = __import__("pathlib").Path({str(ROOT)!r})
+import json, sys
+import numpy as np
+import bpy
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import artist_scenes
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+sc = bpy.context.scene
+artist_scenes.build_cornell_emissive(sc)
+artist_scenes.render_settings(sc, {tuple(size)!r})
+sc.eevee.taa_render_samples = {int(samples)}
+'''
+
+
+ONE_RENDER_SHOT = (1, 20)  # the tiny one-render shot fits' frames
+
+
+def one_render_shot_fit(tmp_path, *kind: str) -> tuple[Path, Path, dict, dict]:
+    """A tiny GI-off one-render shot fit (``cli.py fit --one-render [KIND]``) of shot_scenes' emissive Cornell box,
+    frames ONE_RENDER_SHOT at 96x54, half a minute: (its .blend, the model, the fit's JSON summary, the checkpoint)."""
+    import torch
+    first, last = ONE_RENDER_SHOT
+    blend = tmp_path / "cornell.blend"
+    save_shot("cornell_emissive", blend, (96, 54), last)
+    model = tmp_path / "shot.pt"
+    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{first}-{last}", "--views", "6",
+                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render", *kind,
+                "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--json", timeout=1500)
+    return blend, model, json.loads(p.stdout), torch.load(model, map_location="cpu", weights_only=False)
 
 
 def run_cli(*args: str, timeout: float = 600, check: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:

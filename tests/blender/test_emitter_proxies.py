@@ -8,22 +8,11 @@ from __future__ import annotations
 
 import json
 
-from ..conftest import ROOT, run_py
+from ..conftest import cornell_script, run_py
 
-CODE = r'''
-import json, sys
-import numpy as np
-import bpy
+CODE = cornell_script(4) + r'''
 from bpy_extras.object_utils import world_to_camera_view
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
 from ssgi.ssgi_addon.blender import passes, direct_light
-
-bpy.ops.wm.read_factory_settings(use_empty=True)
-sc = bpy.context.scene
-artist_scenes.build_cornell_emissive(sc)
-artist_scenes.render_settings(sc, (64, 36))
-sc.eevee.taa_render_samples = 4
 W, H = 64, 36
 
 def patch(img, name):
@@ -80,7 +69,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_the_rest_render_lights_what_a_planar_emitter_lights_and_leaves_the_scene_as_it_was():
-    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + CODE, timeout=900)
+    p = run_py(CODE, timeout=900)
     res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
     assert res["emitters"] == ["emissive_panel"], res
     assert res["left_behind"] == [0, 0], res

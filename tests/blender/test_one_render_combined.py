@@ -10,22 +10,11 @@ import json
 
 import pytest
 
-from ..conftest import ROOT, run_cli, run_py, save_shot
+from ..conftest import ROOT, cornell_script, one_render_shot_fit, run_py
 
-PASSES = r'''
-import json, sys
-import numpy as np
+PASSES = cornell_script(2) + r'''
 import OpenEXR
-import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
 from ssgi.ssgi_addon.blender import passes
-
-bpy.ops.wm.read_factory_settings(use_empty=True)
-sc = bpy.context.scene
-artist_scenes.build_cornell_emissive(sc)
-artist_scenes.render_settings(sc, (64, 36))
-sc.eevee.taa_render_samples = 2
 sc.eevee.use_raytracing = sc.eevee.use_fast_gi = True   # the artist's: the GI-off call switches both off
 
 def written(groups):
@@ -51,7 +40,7 @@ print("RESULT", json.dumps({
 
 
 def test_the_combined_one_render_writes_no_diffuse_direct_pass_and_gives_the_local_renders_image():
-    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + PASSES, timeout=900)
+    p = run_py(PASSES, timeout=900)
     res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
     assert res["renders"] == ["rest", "surround"], res["renders"]  # one EEVEE render (surround: ray casts)
     assert "rest" not in res["groups"] and "eevee_combined" in res["groups"], res["groups"]
@@ -111,20 +100,9 @@ print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": so
                             "lightmap": s.lightmap is not None, "reflmap": s.reflmap is not None}))
 '''
 
-SHOT = (1, 20)
-
-
 @pytest.mark.timeout(1800)
 def test_a_combined_one_render_shot_fit_beats_eevee_and_the_node_renders_it_without_diffuse_direct(tmp_path):
-    blend = tmp_path / "cornell.blend"
-    save_shot("cornell_emissive", blend, (96, 54), SHOT[1])
-    model = tmp_path / "shot.pt"
-    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
-                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render", "combined",
-                "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--json", timeout=1500)
-    summary = json.loads(p.stdout)
-    import torch
-    ck = torch.load(model, map_location="cpu", weights_only=False)
+    blend, model, summary, ck = one_render_shot_fit(tmp_path, "combined")
     arch = ck["arch"]
     assert arch["head"] == "residual_combined" and arch["target"] == "ref_combined", arch
     assert {"albedo", "eevee_combined"} <= set(arch["inputs"]) and "eevee_local" not in arch["inputs"], arch

@@ -12,21 +12,10 @@ import json
 
 import pytest
 
-from ..conftest import ROOT, run_cli, run_py, save_shot
+from ..conftest import cornell_script, one_render_shot_fit, run_py
 
-PASSES = r'''
-import json, sys
-import numpy as np
-import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+PASSES = cornell_script(2) + r'''
 from ssgi.ssgi_addon.blender import passes
-
-bpy.ops.wm.read_factory_settings(use_empty=True)
-sc = bpy.context.scene
-artist_scenes.build_cornell_emissive(sc)   # lit only by an emissive ceiling panel (a planar emitter)
-artist_scenes.render_settings(sc, (64, 36))
-sc.eevee.taa_render_samples = 2
 sc.eevee.use_raytracing = sc.eevee.use_fast_gi = True   # the artist's: the GI-off call switches both off
 n_lights = len(bpy.data.lights)
 groups = ("albedo", "normal", "depth", "emission", "eevee_local", "surround", "rest", "gloss")
@@ -72,7 +61,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_a_gi_off_one_render_call_makes_one_render_with_gi_off_and_proxies_on_and_puts_them_back():
-    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + PASSES, timeout=900)
+    p = run_py(PASSES, timeout=900)
     res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
     assert res["renders"] == ["rest", "surround"], res["renders"]  # one EEVEE render (surround: ray casts)
     assert all(v == "rest" for k, v in res["sources"].items() if k != "surround"), res["sources"]
@@ -160,20 +149,9 @@ print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": so
                             "rt_after": [sc.eevee.use_raytracing, sc.eevee.use_fast_gi]}))
 '''
 
-SHOT = (1, 20)
-
-
 @pytest.mark.timeout(1800)
 def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders_it_so(tmp_path):
-    blend = tmp_path / "cornell.blend"
-    save_shot("cornell_emissive", blend, (96, 54), SHOT[1])
-    model = tmp_path / "shot.pt"
-    p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
-                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render", "--min-run-seconds", "1",
-                "--threads", "1", "--crop", "32", "--json", timeout=1500)
-    summary = json.loads(p.stdout)
-    import torch
-    ck = torch.load(model, map_location="cpu", weights_only=False)
+    blend, model, summary, ck = one_render_shot_fit(tmp_path)
     arch = ck["arch"]
     # a scratch network on the one render's groups (no generic start: its passes are not in the views)
     assert arch["head"] == "residual_local", arch
