@@ -267,7 +267,7 @@ class Lightmap:
         known = known_light(groups, self.known)
         if f == 1:
             pw, nw = world_points(z, groups["normal"], M, P)
-            return np.maximum(self.field(pw, nw).reshape(H, W, 3) + known, 0.0)
+            return self._total(self.field(pw, nw).reshape(H, W, 3) + known)
         # only the representative pixels are placed in the world (their own pixel centres), then upsampled
         idx = workres.representative_index(z[..., 0], f)
         n = np.asarray(groups["normal"], np.float32)
@@ -279,7 +279,12 @@ class Lightmap:
         pts, nrm = world_points(lo["depth"], lo["normal"], M, P, pixels=(cols, rows, W, H))
         light_lo = self.field(pts, nrm).reshape(pts.shape)
         hi = {"depth": z, "normal": n}
-        return np.maximum(workres.upsample_light(light_lo, lo, hi, factor=f) + known, 0.0)
+        return self._total(workres.upsample_light(light_lo, lo, hi, factor=f) + known)
+
+    def _total(self, light: np.ndarray) -> np.ndarray:
+        """The light the frame gets: >= 0, except a signed field's (the light a ref_combined model adds to EEVEE's
+        image, which takes light away where EEVEE's image is too bright: the unshadowed emitter proxies' light)."""
+        return light.astype(np.float32) if self.signed else np.maximum(light, 0.0)
 
     def apply(self, part: np.ndarray, groups: dict, M, P, factor: int | None = None) -> np.ndarray:
         """The network's diffuse ``part`` (HxWx3) blended with albedo x the lightmap's light (module doc, step 3).

@@ -127,6 +127,26 @@ def test_the_lightmap_of_a_ref_combined_model_learns_the_signed_light_and_keeps_
     assert not plain.signed and (plain.field(pts, nrm) == 0).all()  # a diffuse light field stays >= 0
 
 
+def test_a_signed_lightmap_takes_light_away_in_the_frame_at_full_and_at_the_working_resolution():
+    # session 27: the field kept its sign but the frame's light (Lightmap.light) clamped it at 0, so where EEVEE's
+    # image was too bright (the unshadowed emitter proxy round the Cornell ball) the lightmap put light back
+    from ssgi.model.infer import lightmap as lm
+    weights = [(np.zeros((8, 6 + 6 * 2), np.float32), np.zeros(8, np.float32)),
+               (np.zeros((3, 8), np.float32), np.full(3, -0.25, np.float32))]
+    h, w = 24, 40
+    g = {"albedo": np.full((h, w, 3), 0.5, np.float32), "depth": np.full((h, w, 1), 3.0, np.float32),
+         "normal": np.tile(np.float32([0, 0, 1]), (h, w, 1))}
+    M, P = np.eye(4), np.float64([[1.5, 0, 0, 0], [0, 2.5, 0, 0], [0, 0, -1.01, -0.2], [0, 0, -1, 0]])
+    for meta, want in (({"target": ch.COMBINED_TARGET}, -0.25), ({"target": ch.DIFFUSE_TARGET}, 0.0)):
+        field = lm.Lightmap(weights, np.zeros(3), np.ones(3), nfreq=2, lam=1.0, meta=meta)
+        for factor in (None, 4):
+            assert np.allclose(field.light(g, M, P, factor), want, atol=1e-4), (meta, factor)
+        part = np.full((h, w, 3), 0.1, np.float32)  # the network's part; the lightmap replaces it (weight 1)
+        out = field.apply(part, g, M, P)
+        inner = out[2:-2, 2:-2]
+        assert np.allclose(inner, 0.5 * want, atol=1e-4), meta
+
+
 def test_a_ref_combined_model_exports_to_onnx_and_runs_there_as_in_torch(tmp_path):
     import torch
 
