@@ -89,6 +89,13 @@ def n_features(nfreq_pos: int, nfreq_dir: int) -> int:
     return 6 + 6 * int(nfreq_pos) + 6 * int(nfreq_dir)
 
 
+def combined_weight(albedo: np.ndarray) -> np.ndarray:
+    """HxWx1: how much of the map a ref_combined model's image takes (``ReflectionMap.apply_combined``): 1 where the
+    albedo is black, falling to 0 where its largest channel reaches the head's floor ``ALBEDO_FLOOR``."""
+    alb = np.nan_to_num(np.asarray(albedo, np.float32)[..., :3]).max(-1, keepdims=True)
+    return np.clip(1.0 - alb / ALBEDO_FLOOR, 0.0, 1.0)
+
+
 class ReflectionMap:
     """The fitted field: ``weights`` [(W, b), ...] of an MLP with ReLU between layers (numpy), the box ``lo``/``hi``
     of the glossy points, the octaves, the weight ``lam`` (module doc)."""
@@ -144,9 +151,7 @@ class ReflectionMap:
         c = np.asarray(combined, np.float32)[..., :3]
         if self.lam <= 0.0:
             return c
-        alb = np.nan_to_num(np.asarray(groups["albedo"], np.float32)[..., :3]).max(-1, keepdims=True)
-        w = np.clip(1.0 - alb / ALBEDO_FLOOR, 0.0, 1.0)
-        return (c + w * self.correction(groups, M, P)).astype(np.float32)
+        return (c + combined_weight(groups["albedo"]) * self.correction(groups, M, P)).astype(np.float32)
 
     # --- the file ---
 

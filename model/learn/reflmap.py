@@ -16,6 +16,12 @@ node's settings (groups ``rest`` and ``gloss``: a shot fit bakes them, ``bake --
    Cycles' image, pooled PSNR over the geometry pixels, for each ``LAMBDAS``; the best is kept (0: the map is not
    used). The network's diffuse prediction does not enter: the map changes only the rest, which the node adds to
    every prediction alike.
+
+``combined`` (a ref_combined model's map, session 27): such a model's image takes the map only where the albedo is
+below the head's floor (``reflmap.combined_weight``: metal, mirrors); elsewhere its network learned Cycles'
+reflections itself. Its points are then those pixels, their gloss x that weight, and its weight is chosen on the
+image it makes (base + lam x weight x the correction), so a map that helps the metal is not refused for what it
+would have done to a glossy floor the model never corrects with it.
 """
 from __future__ import annotations
 
@@ -39,24 +45,34 @@ MIN_POINTS = 200
 NEED = ("normal", "depth", "gloss", "rest", "ref", "ref_diffuse")
 
 
-def _read(data_dir, key):
-    return exrio.read_sample(folder.sample_path(data_dir, str(key)), NEED)  # UserError names a missing group
+def _read(data_dir, key, combined: bool = False):
+    need = NEED + (("albedo",) if combined else ())
+    return exrio.read_sample(folder.sample_path(data_dir, str(key)), need)  # UserError names a missing group
 
 
-def points(data_dir, cameras: dict, keys) -> dict[str, np.ndarray]:
-    """{pos, dir, gloss, base, ref}: Nx3 each, of the views ``keys`` (module doc, step 1)."""
+def _applied(g: dict, combined: bool) -> np.ndarray:
+    """HxWx1 (or 1.0): the share of the correction the model's image takes at each pixel (module doc)."""
+    return rm.combined_weight(g["albedo"]) if combined else np.float32(1.0)
+
+
+def points(data_dir, cameras: dict, keys, combined: bool = False) -> dict[str, np.ndarray]:
+    """{pos, dir, gloss, base, ref}: Nx3 each, of the views ``keys`` (module doc, step 1; ``combined``: only where a
+    ref_combined model's image takes the map, gloss x that share)."""
     out = {k: [] for k in ("pos", "dir", "gloss", "base", "ref")}
     for k in keys:
         if str(k) not in cameras:
             raise UserError(f"{data_dir}: view {k} has no camera matrices in cameras.json")
-        g = _read(data_dir, k)
+        g = _read(data_dir, k, combined)
         c = cameras[str(k)]
+        share = _applied(g, combined)
         ok = rm.glossy_mask(g)
+        if combined:
+            ok &= share[..., 0] > 0
         if not ok.any():
             continue
         pw, r = rm.reflected(g["depth"], g["normal"], c["M"], c["P"])
         base = g["ref_diffuse"][..., :3] + g["rest"][..., :3]
-        vals = dict(pos=pw, dir=r, gloss=g["gloss"][..., :3], base=base, ref=g["ref"][..., :3])
+        vals = dict(pos=pw, dir=r, gloss=g["gloss"][..., :3] * share, base=base, ref=g["ref"][..., :3])
         ok &= np.all([np.isfinite(v).all(-1) for v in vals.values()], axis=0)
         for name, v in vals.items():
             out[name].append(np.asarray(v, np.float32)[ok])
@@ -92,16 +108,17 @@ def train_field(pts: dict, seconds: float, seed: int = 0, log=None, steps: int |
     return rm.ReflectionMap(weights, lo, hi, nfreq_pos, nfreq_dir, 0.0, meta=stats), stats
 
 
-def choose_weight(field: rm.ReflectionMap, data_dir, cameras: dict, keys) -> tuple[float, dict]:
-    """(lam, {lam: pooled PSNR}) on the validation views ``keys`` (module doc, step 3)."""
+def choose_weight(field: rm.ReflectionMap, data_dir, cameras: dict, keys, combined: bool = False) -> tuple[float, dict]:
+    """(lam, {lam: pooled PSNR}) on the validation views ``keys`` (module doc, step 3; ``combined``: the correction
+    as a ref_combined model's image takes it)."""
     from ..images import geometry_mask
     pools = {lam: metrics.PooledPSNR() for lam in LAMBDAS}
     for k in keys:
-        g = _read(data_dir, k)
+        g = _read(data_dir, k, combined)
         c = cameras[str(k)]
         mask = geometry_mask(g["depth"], g["normal"])
         base = g["ref_diffuse"][..., :3] + g["rest"][..., :3]
-        corr = field.correction(g, c["M"], c["P"], lam=1.0)
+        corr = field.correction(g, c["M"], c["P"], lam=1.0) * _applied(g, combined)
         for lam in LAMBDAS:
             pools[lam].add(np.maximum(base + lam * corr, 0.0)[mask], g["ref"][..., :3][mask])
     scores = {lam: pools[lam].value for lam in LAMBDAS}
@@ -110,15 +127,16 @@ def choose_weight(field: rm.ReflectionMap, data_dir, cameras: dict, keys) -> tup
 
 
 def fit_reflmap(data_dir, cameras: dict, train, val, seconds: float, seed: int = 0, log=None,
-                steps: int | None = None) -> tuple[rm.ReflectionMap, dict]:
-    """Points, training, weight (module doc). Returns (ReflectionMap with its lam, report dict)."""
+                steps: int | None = None, combined: bool = False) -> tuple[rm.ReflectionMap, dict]:
+    """Points, training, weight (module doc; ``combined``: a ref_combined model's map). Returns (ReflectionMap with its
+    lam, report dict)."""
     t0 = time.perf_counter()
-    pts = points(data_dir, cameras, train)
+    pts = points(data_dir, cameras, train, combined)
     field, stats = train_field(pts, max(seconds - (time.perf_counter() - t0), 1.0), seed=seed, log=log, steps=steps)
-    lam, scores = choose_weight(field, data_dir, cameras, val)
+    lam, scores = choose_weight(field, data_dir, cameras, val, combined)
     field.lam = lam
     rep = dict(stats, lam=lam, val_psnr={str(k): round(v, 3) for k, v in scores.items()},
-               seconds_total=time.perf_counter() - t0)
+               seconds_total=time.perf_counter() - t0, combined=bool(combined))
     field.meta = rep
     if log:
         log(f"reflection map: {stats['points']} points, {stats['steps']} steps; val PSNR (Cycles' diffuse part + "

@@ -87,6 +87,10 @@ ONE_RENDER_HEAD = "residual_local"
 ONE_RENDER_FITS: dict[str, tuple[str, str, str | None]] = {
     "local": (ONE_RENDER_INPUTS, ONE_RENDER_HEAD, None),
     "combined": ("albedo,normal,depth,emission,eevee_combined,glow,surround", "residual_combined", ch.COMBINED_TARGET)}
+# the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined since session 27
+# (withheld frames of three shots, docs/one_render.md: room 35.13 against local 34.95 dB, Cornell 38.19 against 37.27,
+# living room 31.73 against 28.28; and its frames render one pass fewer)
+ONE_RENDER_DEFAULT = "combined"
 
 
 def one_render_ladder(ladder, target, shot: bool, kind: str = "local") -> tuple[list, float | None, str]:
@@ -150,9 +154,9 @@ class FitSceneConfig:
     reflmap: bool = True
     # a GI-off one-render model (issue 15, docs/one_render.md): the views hold only what one EEVEE render with ray
     # tracing and fast GI off gives (eevee_local, albedo, normal, depth, emission, rest, gloss; passes.ONE_RENDER_MODES),
-    # scratch networks with head residual_local learn from it, and each frame of the node is that one render. A kind
-    # (ONE_RENDER_FITS; True: "local"): "combined" reads that render's Combined image instead of its Diffuse Direct
-    # pass, which the node's frames then do not render
+    # scratch networks learn from it, and each frame of the node is that one render. A kind (ONE_RENDER_FITS; True:
+    # ONE_RENDER_DEFAULT): "combined" reads that render's Combined image (head residual_combined), so the node's frames
+    # render no Diffuse Direct pass; "local" reads its Diffuse Direct pass (head residual_local)
     one_render: bool | str = False
     command: str | None = None  # recorded in the checkpoint
 
@@ -161,7 +165,7 @@ class FitSceneConfig:
         """The kind of one-render fit (ONE_RENDER_FITS), None for another fit."""
         if not self.one_render:
             return None
-        return "local" if self.one_render is True else str(self.one_render)
+        return ONE_RENDER_DEFAULT if self.one_render is True else str(self.one_render)
 
     def check(self) -> None:
         """UserError naming the setting, before any work (nothing is written)."""
@@ -328,7 +332,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     if glossy and res.get("status") == "done":
         report(dict(phase="reflmap", message="fitting the shot's reflection map", progress=1.0))
         try:  # as the lightmap: a map that cannot be fitted costs the shot its map, not its model
-            res["reflmap"] = fit_shot_reflmap(data_dir, cameras, train, val, res["model"], reflmap_s, cfg.seed, log)
+            res["reflmap"] = fit_shot_reflmap(data_dir, cameras, train, val, res["model"], reflmap_s, cfg.seed, log,
+                                              combined=ch.signed_part(mcfg.target or ch.DIFFUSE_TARGET))
         except UserError as e:
             log(f"fit: no reflection map: {e}")
     fit_s = time.perf_counter() - t0  # the fit: bake + training + its report (the budget's)
@@ -396,12 +401,14 @@ def fit_shot_lightmap(data_dir, cameras: dict, train, val, model, target: str, s
     return rep
 
 
-def fit_shot_reflmap(data_dir, cameras: dict, train, val, model, seconds: float, seed: int, log) -> dict:
+def fit_shot_reflmap(data_dir, cameras: dict, train, val, model, seconds: float, seed: int, log,
+                     combined: bool = False) -> dict:
     """Fit the reflection map of a shot (model/learn/reflmap.py) and write it beside ``model`` (its weight chosen on
-    the validation views; a weight of 0 is written too, and the node then ignores it). Returns its report."""
+    the validation views; a weight of 0 is written too, and the node then ignores it; ``combined``: the model is a
+    ref_combined one, whose image takes the map only where the albedo is black). Returns its report."""
     from ...model.infer import reflmap as irm
     from ...model.learn import reflmap as lrm
-    field, rep = lrm.fit_reflmap(data_dir, cameras, train, val, seconds, seed=seed, log=log)
+    field, rep = lrm.fit_reflmap(data_dir, cameras, train, val, seconds, seed=seed, log=log, combined=combined)
     path = field.save(irm.path_for(model))
     rep.update(file=str(path))
     return rep

@@ -136,3 +136,37 @@ def test_the_weight_is_chosen_on_the_views_and_the_file_round_trips(tmp_path):
     exrio.write_sample(folder.sample_path(tmp_path, "000009"), dict(_frame(H, W)), half=False)
     with pytest.raises(UserError, match=r"000009\.exr: missing channel"):
         lrm.points(tmp_path, cams | {"000009": cams["000000"]}, ["000009"])
+
+
+def test_a_combined_models_map_learns_and_is_weighed_only_where_its_image_takes_it(tmp_path):
+    """A ref_combined model's image takes the map only where the albedo is black (reflmap.combined_weight). Views of a
+    wall whose glossy half is metal above (black albedo, EEVEE's reflection too dark) and glossy paint below (albedo
+    0.5, EEVEE's reflection right): the map learns from the metal alone and is weighed on what the model's image does
+    with it, not refused for what it would do to the paint."""
+    H, W = 24, 32
+    P = perspective(w=W, h=H, shift_x=0.0)
+    cams = {}
+    metal = np.zeros((H, W), bool)
+    metal[: H // 2, W // 2:] = True
+    for i, M in enumerate((np.eye(4), pose(0.1, 0.2, (0.3, 0.0, 0.5)), pose(-0.1, -0.2, (-0.3, 0.1, 0.2)))):
+        g = _frame(H, W)
+        _, r = rm.reflected(g["depth"], g["normal"], M, P)
+        albedo = np.where(metal[..., None], 0.0, 0.5).astype(np.float32) * np.ones(3, np.float32)
+        rest = np.full((H, W, 3), 0.05, np.float32)
+        rd = (0.2 * albedo).astype(np.float32)
+        ref = rd + rest + np.where(metal[..., None], g["gloss"] * env(r), 0.0)
+        k = f"{i:06d}"
+        exrio.write_sample(folder.sample_path(tmp_path, k), dict(g, albedo=albedo, rest=rest, ref=ref, ref_diffuse=rd),
+                           half=False)
+        cams[k] = {"M": M.tolist(), "P": P.tolist()}
+    assert np.allclose(rm.combined_weight(np.float32([[0, 0, 0], [0.025, 0, 0.01], [0.5, 0.5, 0.5]])),
+                       [[1.0], [0.5], [0.0]])
+    pts = lrm.points(tmp_path, cams, ["000000"], combined=True)
+    assert len(pts["pos"]) == int((rm.glossy_mask(_frame(H, W)) & metal).sum()) > 0
+    assert len(lrm.points(tmp_path, cams, ["000000"])["pos"]) == int(rm.glossy_mask(_frame(H, W)).sum())
+    field, rep = lrm.fit_reflmap(tmp_path, cams, ["000000", "000001"], ["000002"], seconds=60.0, steps=400,
+                                 combined=True)
+    assert rep["combined"] and rep["lam"] == 1.0 and rep["val_psnr"]["1.0"] > rep["val_psnr"]["0.0"] + 3, rep
+    # weighed as a diffuse-part model's rest takes it (everywhere glossy), the same map also "corrects" the paint
+    _, local = lrm.choose_weight(field, tmp_path, cams, ["000002"])
+    assert local[1.0] < rep["val_psnr"]["1.0"] - 1, (local, rep["val_psnr"])
