@@ -70,11 +70,11 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                                        "about what EEVEE's own GI costs at the same samples (measured on "
                                                        "Mesa, docs/one_render.md; cli.py fit --one-render)")
     fit_one_render_kind: bpy.props.EnumProperty(
-        name="Reads", default="local",
-        items=[("local", "Diffuse Direct", "The one render's Diffuse Direct pass (composed with its rest; a glossy shot "
-                                           "also gets a reflection map)"),
-               ("combined", "Combined Image", "The one render's Combined image: the frames render one pass fewer (no "
-                                              "Diffuse Direct; cli.py fit --one-render combined)")],
+        name="Reads", default="combined",
+        items=[("combined", "Combined Image", "The one render's Combined image: the frames render one pass fewer (no "
+                                              "Diffuse Direct; cli.py fit --one-render combined, the default)"),
+               ("local", "Diffuse Direct", "The one render's Diffuse Direct pass, composed with its rest (a glossy shot "
+                                           "also gets a reflection map; cli.py fit --one-render local)")],
         description="What a One Render model reads of its render")
     fit_reflmap: bpy.props.BoolProperty(name="Shot Reflection Map", default=True,
                                         description="With Fit the Shot: when the scene has mirrors or metal, also fit a "

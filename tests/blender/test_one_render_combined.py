@@ -69,7 +69,20 @@ def test_a_combined_one_render_fit_reads_the_combined_image_and_no_diffuse_direc
     assert {"eevee_combined", "eevee_local", "rest", "gloss"} <= set(baked)  # (the fit's report and comparisons)
     assert pfit.ONE_RENDER_FITS["combined"][2] == ch.COMBINED_TARGET
     assert lightmap.known_for(ch.required_groups(spec)) == ()  # no known light: the field is the light it adds
-    assert pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True).one_render_kind == "local"
+    # the default kind since session 27 (it won on the withheld frames of all three shots), for the CLI, the config and
+    # the Fit panel alike
+    assert pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True).one_render_kind == "combined"
+    import argparse
+
+    from ssgi.ssgi_addon.commands import fit as cfit
+    from ssgi.ssgi_addon import props
+    ap = argparse.ArgumentParser()
+    cfit.register_cli(ap.add_subparsers())
+    assert ap.parse_args(["fit", "--out", "x.pt", "--one-render"]).one_render == "combined"
+    assert ap.parse_args(["fit", "--out", "x.pt", "--one-render", "local"]).one_render == "local"
+    assert ap.parse_args(["fit", "--out", "x.pt"]).one_render is None
+    kind = eval(props.SSGI_SceneSettings.__annotations__["fit_one_render_kind"], vars(props))  # (a deferred property)
+    assert kind.keywords["default"] == pfit.ONE_RENDER_DEFAULT
     with pytest.raises(UserError, match="--one-render bogus"):
         pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render="bogus").check()
     # views of the two kinds are not the same views

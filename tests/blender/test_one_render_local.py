@@ -151,7 +151,7 @@ print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": so
 
 @pytest.mark.timeout(1800)
 def test_a_one_render_shot_fit_reads_only_the_gi_off_render_and_the_node_renders_it_so(tmp_path):
-    blend, model, summary, ck = one_render_shot_fit(tmp_path)
+    blend, model, summary, ck = one_render_shot_fit(tmp_path, "local")
     arch = ck["arch"]
     # a scratch network on the one render's groups (no generic start: its passes are not in the views)
     assert arch["head"] == "residual_local", arch
