@@ -15,8 +15,9 @@ add), ``none`` (the field of the whole diffuse light), ``known`` (the field of t
 ``--known`` direct-light passes, added back per frame: model/infer/lightmap.py). Each prints, for every weight of
 model/learn/lightmap.LAMBDAS, the pooled PSNR over the frames and the per-frame PSNRs, scored as the fit's withheld
 scoring scores (fit_report.score_withheld: geometry pixels, the network's diffuse part composed with EEVEE's rest).
-The network is scored stateless (no temporal mode), as ``fitted_network`` is. ``--edge-spread`` restores session
-15's edge rule (the depth term spread over 3 x 3 pixels) for comparison. Fields are trained for ``--seconds`` of
+The network is scored stateless (no temporal mode), as ``fitted_network`` is. ``--edge-rule`` keeps the network on
+edge pixels (sessions 16-26), ``--edge-spread`` restores session 15's edge rule (the depth term spread over 3 x 3
+pixels), for comparison. Fields are trained for ``--seconds`` of
 wall time, so a loaded machine trains fewer steps; the steps are printed.
 """
 from __future__ import annotations
@@ -105,7 +106,7 @@ def score(a) -> None:
         for lam in llm.LAMBDAS:
             pool, per = metrics.PooledPSNR(), []
             for f, L in zip(frames, lights):
-                w = lm.blend_weight(f["g"], lam)[..., None]
+                w = lm.blend_weight(f["g"], lam, network_on_edges=a.edge_rule or a.edge_spread)[..., None]
                 part = w * f["g"]["albedo"][..., :3] * L + (1 - w) * f["net"]
                 r = metrics.score(compose(part, f["g"], ch.DIFFUSE_TARGET, None), f["ref"],
                                   geometry_mask(f["g"]["depth"], f["g"]["normal"]), with_ssim=False, with_flip=False)
@@ -152,6 +153,8 @@ def main() -> None:
     s.add_argument("--threads", type=int, default=2)
     s.add_argument("--model", default=None, help="score this network instead of the cached prediction (re-predicted "
                    "from the cached passes, stateless)")
+    s.add_argument("--edge-rule", action="store_true",
+                   help="sessions 16-26's rule: the network, not the lightmap, on edge pixels (for comparison)")
     s.add_argument("--edge-spread", action="store_true", help="session 15's edge rule, for comparison")
     a = ap.parse_args()
     (cache if a.cmd == "cache" else score)(a)

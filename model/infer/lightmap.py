@@ -14,11 +14,14 @@ by the albedo). At render time:
 2. ``Lightmap.light(...)``: the MLP's diffuse light at those points (at a large output, at the working
    resolution's representative pixels and upsampled with the depth/normal-guided upsampler of workres.py);
 3. ``Lightmap.apply(part, groups, M, P)``: the network's diffuse part blended with albedo x that light, with weight
-   ``lam`` where the blend is safe and 0 elsewhere: the ``edges`` (the two pixels of a depth
-   discontinuity or crease, or a 3 x 3 neighbourhood where the normal or the albedo changes: anti-aliased silhouettes and textures, where
-   one light per pixel is wrong; a flat face seen at a grazing angle is not an edge), pixels with a
-   (near-)black albedo channel (metal, emitters) and pixels where nothing was hit. ``lam`` is chosen by the fit on
-   its validation views; 0 means the lightmap is not used.
+   ``lam`` where the blend is safe and 0 elsewhere: pixels with a (near-)black albedo channel (metal, emitters) and
+   pixels where nothing was hit. ``lam`` is chosen by the fit on its validation views; 0 means the lightmap is not
+   used. Sessions 15-26 also kept the network on the ``edges`` (the two pixels of a depth discontinuity or crease,
+   or a 3 x 3 neighbourhood where the normal or the albedo changes: anti-aliased silhouettes and textures, where one
+   light per pixel is wrong); session 27 measured that rule costing every shot fit's withheld frames 0.9-4.8 dB
+   (the network's own light on every edge and every texture: bright lines along a room's corners, a checker
+   armchair left to the network), so the lightmap is blended there too (``blend_weight(network_on_edges=True)``: the old
+   rule).
 
 **Known light** (``known``, session 16): a field can instead learn the light *minus* the frame's own direct light,
 passes the render path renders anyway (``direct_soft`` or ``direct``, ``emit_direct``: ``KNOWN_CANDIDATES``); at render
@@ -153,12 +156,14 @@ def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray, normals: bo
     return e
 
 
-def blend_weight(groups: dict, lam: float) -> np.ndarray:
-    """HxW float32: where and how much the lightmap replaces the network (module doc)."""
+def blend_weight(groups: dict, lam: float, network_on_edges: bool = False) -> np.ndarray:
+    """HxW float32: where and how much the lightmap replaces the network (module doc). ``network_on_edges``: not on
+    ``edges`` either (sessions 15-26's rule; session 27 measured it costing every shot fit 0.9-4.8 dB)."""
     from ..images import geometry_mask
     alb = np.asarray(groups["albedo"], np.float32)[..., :3]
     ok = geometry_mask(groups["depth"], groups["normal"]) & (alb > ALBEDO_MIN).all(-1)
-    ok &= ~edges(groups["depth"], groups["normal"], alb)
+    if network_on_edges:
+        ok &= ~edges(groups["depth"], groups["normal"], alb)
     return (float(lam) * ok).astype(np.float32)
 
 

@@ -13,7 +13,7 @@
    direct light, and the loss divides by 1 + |y|.
 3. **The blend weight.** On the validation views (held out from both the network and the lightmap), the fitted
    network's diffuse part (as the node predicts it) is blended with the lightmap at each weight of ``LAMBDAS``
-   (``Lightmap.apply``: edges, black albedo and the sky keep the network) and composed as the node composes;
+   (``Lightmap.apply``: black albedo and the sky keep the network) and composed as the node composes;
    the weight with the best pooled PSNR against the views' references is kept (0: the lightmap is not used), or a
    higher one within ``TIE_DB`` of it.
 

@@ -127,8 +127,13 @@ def test_apply_blends_only_where_it_is_safe():
     assert set(np.unique(w)) == {0.0, 0.5}
     e = lm.edges(g["depth"], g["normal"], g["albedo"])
     assert e[:, 7:9].all() and not e[5, 2]  # the depth edge, not the flat wall
-    assert np.array_equal(out[w == 0], part[w == 0])  # edges, the sky pixel, the black channel keep the network
+    assert np.array_equal(out[w == 0], part[w == 0])  # the sky pixel and the black channel keep the network
     assert w[0, 0] == 0 and (w[-3:, :3] == 0).all()
+    # since session 27 the lightmap is blended on the edges too (the rule before it kept the network there)
+    assert (w[1:-3, 7:9] == 0.5).all()
+    assert np.allclose(out[5, 8], 0.5 * 0.5 * 2.0 + 0.5 * 0.3)
+    old = lm.blend_weight(g, 0.5, network_on_edges=True)
+    assert (old[:, 7:9] == 0).all() and (old <= w).all() and old[5, 2] == 0.5
     assert np.allclose(out[5, 2], 0.5 * 0.5 * 2.0 + 0.5 * 0.3)  # lam x albedo x light + (1 - lam) x part
     assert _field(0.0).apply(part, g, np.eye(4), perspective(w=16, h=12)) is part
     # at a working-resolution factor the light is evaluated at representative pixels and upsampled: a constant
