@@ -88,8 +88,8 @@ ONE_RENDER_FITS: dict[str, tuple[str, str, str | None]] = {
     "local": (ONE_RENDER_INPUTS, ONE_RENDER_HEAD, None),
     "combined": ("albedo,normal,depth,emission,eevee_combined,glow,surround", "residual_combined", ch.COMBINED_TARGET)}
 # the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined since session 27
-# (withheld frames of three shots, docs/one_render.md: room 35.13 against local 34.95 dB, Cornell 38.19 against 37.27,
-# living room 31.73 against 28.28; and its frames render one pass fewer)
+# (withheld frames of three shots, docs/one_render.md, with the lightmap on edges: room 37.56 against local 36.56 dB,
+# Cornell 39.16 against 38.54, living room 36.50 against 29.16; and its frames render one pass fewer)
 ONE_RENDER_DEFAULT = "combined"
 
 
