@@ -289,7 +289,7 @@ class Lightmap:
     def _total(self, light: np.ndarray) -> np.ndarray:
         """The light the frame gets: >= 0, except a signed field's (the light a ref_combined model adds to EEVEE's
         image, which takes light away where EEVEE's image is too bright: the unshadowed emitter proxies' light)."""
-        return light.astype(np.float32) if self.signed else np.maximum(light, 0.0)
+        return np.asarray(light, np.float32) if self.signed else np.maximum(light, 0.0)
 
     def apply(self, part: np.ndarray, groups: dict, M, P, factor: int | None = None) -> np.ndarray:
         """The network's diffuse ``part`` (HxWx3) blended with albedo x the lightmap's light (module doc, step 3).

@@ -21,6 +21,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ...model import channels as ch
 from ...model.errors import UserError
 from ...model.infer import history as hist, temporal as tp
 
@@ -128,13 +129,11 @@ class History:
     @property
     def _signed(self) -> bool:
         """A ref_combined model's part may be negative (the light it takes from EEVEE's image): kept so."""
-        from ...model import channels as ch
         return ch.signed_part(self.s.target)
 
     def _albedo(self, groups: dict):
         """What the prediction is divided by to give light: the albedo for a diffuse-part model; ones for a
         whole-image model (its image is blended as it is)."""
-        from ...model import channels as ch
         if ch.adds_part(self.s.target):
             return groups["albedo"]
         return np.ones(groups["albedo"].shape[:2] + (3,), np.float32)
