@@ -89,6 +89,14 @@ def n_features(nfreq_pos: int, nfreq_dir: int) -> int:
     return 6 + 6 * int(nfreq_pos) + 6 * int(nfreq_dir)
 
 
+def corrects_combined(target: str) -> bool:
+    """Whether a model of ``target`` takes its reflection map as a ref_combined model does (``apply_combined``: on
+    EEVEE's GI-off image, where the albedo is black) rather than on EEVEE's rest (``apply``). The one rule for the fit
+    (which pixels the map learns from and is weighed on, model/learn/reflmap.py) and the render path (how it is
+    applied)."""
+    return ch.base_group(target) == "eevee_combined"
+
+
 def combined_weight(albedo: np.ndarray) -> np.ndarray:
     """HxWx1: how much of the map a ref_combined model's image takes (``ReflectionMap.apply_combined``): 1 where the
     albedo is black, falling to 0 where its largest channel reaches the head's floor ``ALBEDO_FLOOR``."""

@@ -331,9 +331,10 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
             log(f"fit: no lightmap: {e}")
     if glossy and res.get("status") == "done":
         report(dict(phase="reflmap", message="fitting the shot's reflection map", progress=1.0))
+        from ...model.infer.reflmap import corrects_combined
         try:  # as the lightmap: a map that cannot be fitted costs the shot its map, not its model
             res["reflmap"] = fit_shot_reflmap(data_dir, cameras, train, val, res["model"], reflmap_s, cfg.seed, log,
-                                              combined=ch.signed_part(mcfg.target or ch.DIFFUSE_TARGET))
+                                              combined=corrects_combined(mcfg.target or ch.DIFFUSE_TARGET))
         except UserError as e:
             log(f"fit: no reflection map: {e}")
     fit_s = time.perf_counter() - t0  # the fit: bake + training + its report (the budget's)

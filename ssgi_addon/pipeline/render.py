@@ -232,7 +232,8 @@ class RenderSession:
             c = camera_matrices(self.scene)
             # (a ref_combined model's base is EEVEE's GI-off image, corrected where the albedo is black)
             base = ch.base_group(self.target)
-            fix = self.reflmap.apply_combined if base == "eevee_combined" else self.reflmap.apply
+            from ...model.infer.reflmap import corrects_combined
+            fix = self.reflmap.apply_combined if corrects_combined(self.target) else self.reflmap.apply
             groups[f"{base}_eevee"] = groups[base]
             groups[base] = fix(groups[base], groups, c["M"], c["P"])
         return groups

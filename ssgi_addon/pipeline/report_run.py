@@ -36,7 +36,7 @@ import numpy as np
 from ...model import channels as ch
 from ...model import images, metrics
 from ...model.evaluate import analysis
-from ...model.infer.compose import compose
+from ...model.infer.compose import compose, needs
 from ...model.errors import UserError
 from ..blender import passes
 from .report_scenes import EXTRA_GROUPS, RASTER_GROUPS, EvalScene
@@ -54,9 +54,15 @@ LADDER_SEED = 7919  # Cycles seed of the ladder renders: not a seed the baker us
 REF_SEED_OFFSET = 104729  # the re-rendered reference uses the target's seed + this
 
 
+def _one_render_light(pred) -> str | None:
+    """The one-render group a one-render model reads (docs/one_render.md; passes.ONE_RENDER_MODES): eevee_diffuse
+    (ray tracing and fast GI on), eevee_local or eevee_combined (both off, emitter proxies); None for another model."""
+    return next((g for g in ch.required_groups(tuple(pred.spec)) if g in passes.ONE_RENDER_MODES), None)
+
+
 def _one_render(pred) -> bool:
-    """A one-render model (docs/one_render.md): it reads EEVEE's own diffuse light from the artist-settings render."""
-    return "eevee_diffuse" in ch.required_groups(tuple(pred.spec))
+    """A one-render model: every group it reads, and its rest or Combined image, come from one EEVEE render."""
+    return _one_render_light(pred) is not None
 
 
 def _diffuse_gbuffer(pred) -> bool:
@@ -228,15 +234,25 @@ class ReportRun:
                      spp=self.s.ref_samples)
 
     def _one_render_groups(self, scene, samples: int) -> dict:
-        """Every group the one-render models read, and the rest, from one passes.render_gbuffer call: the
-        artist-settings render with ray tracing and fast GI on, as the render path makes it (the emitter proxies
-        shadowed or not, on the sides, as the models' bakes recorded; models that disagree get the defaults)."""
-        ones = [p for _, p in self._model_keys.values() if _one_render(p)]
-        want = tuple(dict.fromkeys(g for p in ones for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal", "rest")))
-        recorded = [passes.recorded_proxy_options(getattr(p, "meta", None) or {}) for p in ones]
-        agreed = {k: vs.pop() for k in ("proxy_shadows", "proxy_sides")
-                  if len(vs := {r[k] for r in recorded if k in r}) == 1}
-        return passes.render_gbuffer(scene, want, samples=samples, rest_samples=samples, **agreed)
+        """{one-render group: every group the one-render models of that kind read, and what they are composed with
+        (the rest, or a ref_combined model's Combined image)}: one passes.render_gbuffer call per kind of one render
+        (``_one_render_light``; ray tracing and fast GI on for eevee_diffuse, off with emitter proxies otherwise), as
+        the render path makes it (the proxies shadowed or not, on the sides, as the models' bakes recorded; models
+        of a kind that disagree get the defaults)."""
+        kinds: dict[str, list] = {}
+        for _, p in self._model_keys.values():
+            if _one_render(p):
+                kinds.setdefault(_one_render_light(p), []).append(p)
+        out, self._one_s = {}, {}
+        for light, ones in kinds.items():
+            want = tuple(dict.fromkeys(g for p in ones for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal")
+                                       + needs(p.target)))
+            recorded = [passes.recorded_proxy_options(getattr(p, "meta", None) or {}) for p in ones]
+            agreed = {k: vs.pop() for k in ("proxy_shadows", "proxy_sides")
+                      if len(vs := {r[k] for r in recorded if k in r}) == 1}
+            out[light], self._one_s[light] = _timed(passes.render_gbuffer, scene, want, samples=samples,
+                                                    rest_samples=samples, **agreed)
+        return out
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
@@ -247,7 +263,7 @@ class ReportRun:
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
         g1 = self._one_render_groups(scene, 1) if any(_one_render(p) for _, p in self._model_keys.values()) else None
         for _, pred in self._model_keys.values():
-            pred.predict(g1 if _one_render(pred) else g)
+            pred.predict(g1[_one_render_light(pred)] if _one_render(pred) else g)
         if any(_diffuse(p) for _, p in self._model_keys.values()):
             passes.render_rest(scene, 1)  # the scene's own EEVEE settings compile their shaders too
         self._warm = True
@@ -310,7 +326,7 @@ class ReportRun:
             g1, t_one = _timed(self._one_render_groups, scene, s.ssgi_samples)
             self._step(f"{name}: one-render passes at {s.ssgi_samples} samples {t_one:.2f} s")
         for key, (path, pred) in self._model_keys.items():
-            gg = g1 if _one_render(pred) else gd if _diffuse(pred) else g
+            gg = g1[_one_render_light(pred)] if _one_render(pred) else gd if _diffuse(pred) else g
             ts, img = [], None
             for _ in range(max(1, s.predict_repeats)):
                 img, t = _timed(pred.predict, gg)
@@ -321,7 +337,7 @@ class ReportRun:
             world_s = (t_wd if d else t_w) if _needs_world(pred) else 0.0
             times = dict(gbuffer_s=(t_gd if d else t_g) + world_s + extra, predict_s=t_p)
             if _one_render(pred):  # one render gives every group and the rest
-                times = dict(gbuffer_s=0.0, predict_s=t_p, rest_s=t_one)
+                times = dict(gbuffer_s=0.0, predict_s=t_p, rest_s=self._one_s[_one_render_light(pred)])
                 img = compose(img, gg, pred.target)
             elif _diffuse(pred):
                 img = compose(img, gg, pred.target)
@@ -412,7 +428,7 @@ class ReportRun:
             g1 = self._one_render_groups(scene, s.ssgi_samples) \
                 if any(_one_render(p) for _, p in self._model_keys.values()) else None
             for key, (path, pred) in self._model_keys.items():
-                gp = g1 if _one_render(pred) else gd
+                gp = g1[_one_render_light(pred)] if _one_render(pred) else gd
                 img = compose(pred.predict(gp), gp, pred.target) if _diffuse(pred) else pred.predict(g)
                 seqs.setdefault(self.raw["methods"][key]["label"], []).append(img)
             if rung is not None:

@@ -271,3 +271,48 @@ def test_report_button_runs_in_the_background_and_panel_shows_progress(e2e, tmp_
     assert len([k for k in raw["methods"] if k.startswith("model_")]) == 4
     assert any(l.startswith("Written: ") and l.endswith("report.md") for l in r["after"]["labels"])
     assert ["ssgi.report", True] in r["after"]["operators"]
+
+
+# ------------------------------------------------------------------------------------------ one-render models
+
+@pytest.fixture(scope="module")
+def one_render_models(tmp_path_factory):
+    """Random-init one-render checkpoints of both kinds of one render: a GI-on model (eevee_diffuse, ray tracing and
+    fast GI on) and a GI-off ref_combined model (eevee_combined, both off, emitter proxies: `cli.py fit --one-render`'s
+    default kind)."""
+    import torch
+    from ssgi.model import channels as ch
+    d = tmp_path_factory.mktemp("one_render_models")
+    out = []
+    for name, variant, inputs, target, over in (
+            ("gi", "unet_s_gi", "albedo,normal,depth,emission,eevee_diffuse,scene_gi,glow,surround", "ref_diffuse", {}),
+            ("comb", "unet_s", "albedo,normal,depth,emission,eevee_combined,glow,surround", ch.COMBINED_TARGET,
+             dict(head="residual_combined"))):
+        torch.manual_seed(0)
+        net = network.build(network.arch_for(variant, inputs=inputs, target=target, **over)).eval()
+        checkpoint.save(d / f"{name}.pt", checkpoint.make(net, "network", command="test"))
+        out.append(d / f"{name}.pt")
+    return out
+
+
+def test_the_report_renders_one_render_models_of_both_kinds_each_from_its_own_one_render(e2e, one_render_models,
+                                                                                          tmp_path):
+    """A GI-off combined model (what `cli.py fit --one-render` makes) is scored beside a GI-on one-render model: each
+    from one EEVEE render of its own kind (no G-buffer renders), the two renders made apart. Before session 28 the
+    report knew only the GI-on kind and failed on a combined model for want of the G-buffer's eevee_combined."""
+    out = tmp_path / "rep"
+    run_cli("report", "--data", str(e2e["out"] / "data"), "--split", "all", "--max-scenes", "1",
+            "--models", *map(str, one_render_models), "--out", str(out), "--spp", "1", "--eevee-samples", "1",
+            "--eevee-high-samples", "1", "--threads", "1", "--no-scaling", "--temporal-frames", "0", timeout=600)
+    raw = json.loads((out / "report.json").read_text())
+    ts = {}
+    for i, p in enumerate(one_render_models):
+        m = raw["methods"][f"model_{i}_{p.stem}"]
+        s = m["summary"]
+        assert all(_finite(s[k]) for k in ("psnr", "ssim", "flip")), (p.stem, s)
+        t = s["time"]
+        # one render gives every group: no G-buffer, the whole frame is that render + the prediction
+        assert t["gbuffer_s"] == 0 and t["rest_s"] > 0, (p.stem, t)
+        assert t["whole_s"] == pytest.approx(t["rest_s"] + t["predict_s"]), (p.stem, t)
+        ts[p.stem] = t["rest_s"]
+    assert ts["gi"] != ts["comb"], ts  # two renders, one of each kind

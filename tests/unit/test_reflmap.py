@@ -170,3 +170,13 @@ def test_a_combined_models_map_learns_and_is_weighed_only_where_its_image_takes_
     # weighed as a diffuse-part model's rest takes it (everywhere glossy), the same map also "corrects" the paint
     _, local = lrm.choose_weight(field, tmp_path, cams, ["000002"])
     assert local[1.0] < rep["val_psnr"]["1.0"] - 1, (local, rep["val_psnr"])
+
+
+def test_one_rule_says_which_models_take_the_map_on_eevees_gi_off_image():
+    """The fit and the render path ask the same question (reflmap.corrects_combined): only a ref_combined model's
+    base is EEVEE's GI-off image (corrected where the albedo is black); the others correct EEVEE's rest."""
+    from ssgi.model import channels as ch
+    from ssgi.model.infer.reflmap import corrects_combined
+    assert corrects_combined(ch.COMBINED_TARGET)
+    assert not corrects_combined(ch.DIFFUSE_TARGET) and not corrects_combined(ch.REST_TARGET)
+    assert not corrects_combined(ch.TARGET_GROUP)
