@@ -150,15 +150,20 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
                  "As 'scene', from EEVEE's own diffuse light instead of the hard direct light: mean "
                  "log1p(albedo*eevee_diffuse) RGB and mean albedo RGB over the geometry pixels, and the geometry "
                  "fraction (one-render models)."),
+    "scene_comb": (("albedo", "eevee_combined", "normal"), 7,
+                   "As 'scene', from EEVEE's GI-off Combined image of a combined one-render model: mean "
+                   "log1p(eevee_combined) RGB and mean albedo RGB over the geometry pixels, and the geometry "
+                   "fraction. The light level of the whole frame, lamps, sky and emitter proxies, for a general "
+                   "(not per-shot) combined model."),
     "glow": (("emission",), 4,
              "Whole-image statistics of the emission pass broadcast to every pixel: mean log1p(emission) RGB over "
              "all pixels and the share of emissive pixels (emission > 0.01). Tells the network how much light the "
              "emitters on screen give off, wherever they are in the image."),
 }
 
-DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1, "scene_gi": 1}
+DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1, "scene_gi": 1, "scene_comb": 1}
 # derived groups that are whole-image statistics (normalised already), not light
-STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi")
+STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi", "scene_comb")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
@@ -170,7 +175,7 @@ OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_di
                                     "gloss", "eevee_diffuse", "eevee_local", "eevee_combined", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
                                  "emit_direct", "surround", "eevee_diffuse", "eevee_local", "eevee_combined", "lit",
-                                 "scene", "glow", "scene_gi")
+                                 "scene", "glow", "scene_gi", "scene_comb")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 # A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what

@@ -110,10 +110,11 @@ def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
     """A derived group from its (repaired) stored groups."""
     if name == "lit":
         return np.minimum(groups["albedo"] * groups["direct"], LIGHT_MAX).astype(np.float32)
-    if name in ("scene", "scene_gi"):
+    if name in ("scene", "scene_gi", "scene_comb"):
         alb = groups["albedo"]
         lit = derived("lit", groups) if name == "scene" else \
-            np.minimum(alb * groups["eevee_diffuse"], LIGHT_MAX).astype(np.float32)
+            np.minimum(alb * groups["eevee_diffuse"], LIGHT_MAX).astype(np.float32) if name == "scene_gi" else \
+            np.minimum(groups["eevee_combined"][..., :3], LIGHT_MAX).astype(np.float32)
         # its own geometry rule, not images.geometry_mask: the shipped model was trained on it (images.py)
         geo = np.abs(groups["normal"]).sum(-1) > 0.5 if "normal" in groups else np.ones(alb.shape[:2], bool)
         stats = np.zeros(7, np.float32)

@@ -109,3 +109,23 @@ def test_the_residual_local_head_starts_from_the_gi_off_renders_diffuse_light_an
     assert "eevee_local" not in ablation.droppable(LOCAL_SPEC, "residual_local")
     assert "eevee_local" in ch.SAMPLE_GROUPS and "eevee_local" in ch.OPTIONAL_GROUPS and "eevee_local" in ch.INPUT_GROUPS
     assert ch.GROUPS["eevee_local"].render_pass == "Diffuse Direct"
+
+
+def test_scene_comb_is_the_whole_frames_light_level_from_eevees_gi_off_image():
+    """A general combined model's statistics (scene_comb): mean log1p of EEVEE's GI-off Combined image itself (not
+    albedo x it: it is an image already), mean albedo, the geometry fraction; mirror-invariant, as scene."""
+    g = _groups()
+    g["eevee_combined"] = np.random.default_rng(3).uniform(0, 2, g["albedo"].shape).astype(np.float32)
+    g["normal"][:2] = 0.0  # two rows of sky: not geometry
+    sc = normalize.derived("scene_comb", g)
+    geo = np.abs(g["normal"]).sum(-1) > 0.5
+    assert sc.shape == (8, 12, 7)
+    assert np.allclose(sc[0, 0, :3], np.log1p(g["eevee_combined"][geo]).mean(0), atol=1e-6)
+    assert np.allclose(sc[0, 0, 3:6], g["albedo"][geo].mean(0), atol=1e-6)
+    assert sc[0, 0, 6] == np.float32(geo.mean())
+    # twice the light, a higher level; the albedo's statistics unchanged
+    brighter = normalize.derived("scene_comb", dict(g, eevee_combined=2 * g["eevee_combined"]))
+    assert (brighter[0, 0, :3] > sc[0, 0, :3]).all() and np.array_equal(brighter[0, 0, 3:], sc[0, 0, 3:])
+    flipped = {k: v[:, ::-1] for k, v in g.items()}
+    assert np.array_equal(normalize.derived("scene_comb", flipped), sc)
+    assert ch.required_groups(("scene_comb",)) == ("albedo", "eevee_combined", "normal")
