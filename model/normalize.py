@@ -112,9 +112,12 @@ def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
         return np.minimum(groups["albedo"] * groups["direct"], LIGHT_MAX).astype(np.float32)
     if name in ("scene", "scene_gi", "scene_comb"):
         alb = groups["albedo"]
-        lit = derived("lit", groups) if name == "scene" else \
-            np.minimum(alb * groups["eevee_diffuse"], LIGHT_MAX).astype(np.float32) if name == "scene_gi" else \
-            np.minimum(groups["eevee_combined"][..., :3], LIGHT_MAX).astype(np.float32)
+        if name == "scene":
+            lit = derived("lit", groups)
+        elif name == "scene_gi":
+            lit = np.minimum(alb * groups["eevee_diffuse"], LIGHT_MAX).astype(np.float32)
+        else:  # scene_comb: the GI-off Combined image is light on the albedo already
+            lit = np.minimum(groups["eevee_combined"][..., :3], LIGHT_MAX).astype(np.float32)
         # its own geometry rule, not images.geometry_mask: the shipped model was trained on it (images.py)
         geo = np.abs(groups["normal"]).sum(-1) > 0.5 if "normal" in groups else np.ones(alb.shape[:2], bool)
         stats = np.zeros(7, np.float32)

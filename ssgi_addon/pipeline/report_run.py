@@ -233,26 +233,26 @@ class ReportRun:
                      + (" + OIDN" if self.s.ref_denoise else "") + " (another seed)", family="reference",
                      spp=self.s.ref_samples)
 
-    def _one_render_groups(self, scene, samples: int) -> dict:
-        """{one-render group: every group the one-render models of that kind read, and what they are composed with
-        (the rest, or a ref_combined model's Combined image)}: one passes.render_gbuffer call per kind of one render
-        (``_one_render_light``; ray tracing and fast GI on for eevee_diffuse, off with emitter proxies otherwise), as
-        the render path makes it (the proxies shadowed or not, on the sides, as the models' bakes recorded; models
-        of a kind that disagree get the defaults)."""
+    def _one_render_groups(self, scene, samples: int) -> tuple[dict, dict]:
+        """({one-render group: every group the one-render models of that kind read, and what they are composed with
+        (the rest, or a ref_combined model's Combined image)}, {one-render group: seconds of its render}): one
+        passes.render_gbuffer call per kind of one render (``_one_render_light``; ray tracing and fast GI on for
+        eevee_diffuse, off with emitter proxies otherwise), as the render path makes it (the proxies shadowed or
+        not, on the sides, as the models' bakes recorded; models of a kind that disagree get the defaults)."""
         kinds: dict[str, list] = {}
         for _, p in self._model_keys.values():
-            if _one_render(p):
-                kinds.setdefault(_one_render_light(p), []).append(p)
-        out, self._one_s = {}, {}
+            if (light := _one_render_light(p)) is not None:
+                kinds.setdefault(light, []).append(p)
+        out, secs = {}, {}
         for light, ones in kinds.items():
             want = tuple(dict.fromkeys(g for p in ones for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal")
                                        + needs(p.target)))
             recorded = [passes.recorded_proxy_options(getattr(p, "meta", None) or {}) for p in ones]
             agreed = {k: vs.pop() for k in ("proxy_shadows", "proxy_sides")
                       if len(vs := {r[k] for r in recorded if k in r}) == 1}
-            out[light], self._one_s[light] = _timed(passes.render_gbuffer, scene, want, samples=samples,
-                                                    rest_samples=samples, **agreed)
-        return out
+            out[light], secs[light] = _timed(passes.render_gbuffer, scene, want, samples=samples,
+                                             rest_samples=samples, **agreed)
+        return out, secs
 
     def _warmup(self, scene) -> None:
         self.log("warm-up (untimed): EEVEE G-buffer and GI shader compile, OIDN and torch start-up")
@@ -261,7 +261,7 @@ class ReportRun:
         for k in GI_PRESETS:
             render_eevee_gi(scene, k, 1)
         passes.render_cycles(scene, 1, seed=LADDER_SEED, denoise=True)
-        g1 = self._one_render_groups(scene, 1) if any(_one_render(p) for _, p in self._model_keys.values()) else None
+        g1 = self._one_render_groups(scene, 1)[0]
         for _, pred in self._model_keys.values():
             pred.predict(g1[_one_render_light(pred)] if _one_render(pred) else g)
         if any(_diffuse(p) for _, p in self._model_keys.values()):
@@ -321,10 +321,9 @@ class ReportRun:
             t_gd, t_wd, t_xd = es.t_raster, es.t_world, dict(es.t_extra)
             (gd["rest"], _beauty), t_rest = _timed(passes.render_rest, scene, s.ssgi_samples)
             self._step(f"{name}: SSGI passes at {s.ssgi_samples} samples: G-buffer {t_gd:.2f} s, rest {t_rest:.2f} s")
-        g1, t_one = None, 0.0
-        if any(_one_render(p) for _, p in self._model_keys.values()):
-            g1, t_one = _timed(self._one_render_groups, scene, s.ssgi_samples)
-            self._step(f"{name}: one-render passes at {s.ssgi_samples} samples {t_one:.2f} s")
+        g1, t_one = self._one_render_groups(scene, s.ssgi_samples)
+        if g1:
+            self._step(f"{name}: one-render passes at {s.ssgi_samples} samples {sum(t_one.values()):.2f} s")
         for key, (path, pred) in self._model_keys.items():
             gg = g1[_one_render_light(pred)] if _one_render(pred) else gd if _diffuse(pred) else g
             ts, img = [], None
@@ -337,7 +336,7 @@ class ReportRun:
             world_s = (t_wd if d else t_w) if _needs_world(pred) else 0.0
             times = dict(gbuffer_s=(t_gd if d else t_g) + world_s + extra, predict_s=t_p)
             if _one_render(pred):  # one render gives every group and the rest
-                times = dict(gbuffer_s=0.0, predict_s=t_p, rest_s=self._one_s[_one_render_light(pred)])
+                times = dict(gbuffer_s=0.0, predict_s=t_p, rest_s=t_one[_one_render_light(pred)])
                 img = compose(img, gg, pred.target)
             elif _diffuse(pred):
                 img = compose(img, gg, pred.target)
@@ -425,8 +424,7 @@ class ReportRun:
             if any(_diffuse_gbuffer(p) for _, p in self._model_keys.values()):
                 gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
                 gd["rest"] = passes.render_rest(scene, s.ssgi_samples, proxies=passes.REST_EMITTER_PROXIES)[0]
-            g1 = self._one_render_groups(scene, s.ssgi_samples) \
-                if any(_one_render(p) for _, p in self._model_keys.values()) else None
+            g1 = self._one_render_groups(scene, s.ssgi_samples)[0]
             for key, (path, pred) in self._model_keys.items():
                 gp = g1[_one_render_light(pred)] if _one_render(pred) else gd
                 img = compose(pred.predict(gp), gp, pred.target) if _diffuse(pred) else pred.predict(g)
