@@ -66,7 +66,8 @@ VARIANTS: dict[str, dict] = {
     "proxy_both_sides": dict(merge=True, proxy_shadows=False, proxy_sides="both"),
     "proxy_open_sides": dict(merge=True, proxy_shadows=False, proxy_sides="open"),
 }
-RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround")  # surround: ray casts, no render
+RENDERS = ("world", "direct_soft", "emit_direct", "raster", "rest", "surround", "sky")  # surround: ray casts, no render;
+# sky: the world's image (a small Cycles render; kept for the world as it is, so 0 after the warm-up frame)
 WARM_SIZE = (64, 36)
 
 

@@ -87,6 +87,13 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "distances (scale free, as depth). Constant over the image. Tells a closed room (walls all round, "
           "behind the camera too) from an open stage or a sky (ssgi_addon/blender/surround.py; issue 14).",
           render_pass=None, preview="grey", drop_rank=1),
+    Group("sky", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
+          "The world's light on each surface, unoccluded, without a render of the scene: the world's first-order "
+          "spherical harmonics (from a 64x32 equirectangular Cycles image of the world alone) evaluated at the "
+          "normal, as EEVEE lights a diffuse surface from the world (model/sky.py; within 2-5 % of the world group "
+          "on the artist test set). 0 where nothing is hit and in a black world. Tells a GI-off one-render model how "
+          "much of its image is the sky's unoccluded light (session 29, docs/one_render.md).",
+          render_pass=None, drop_rank=1),
     Group("rest", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
           "What EEVEE renders well itself: EEVEE's Combined image of the scene at its own settings minus EEVEE's "
           "diffuse part (Diffuse Color x Diffuse Light): emission, the world seen directly, glossy and metal "
@@ -95,8 +102,9 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           render_pass=None),
     Group("gloss", ("R", "G", "B"), "color", "eevee", "use_pass_glossy_color", "reflectance",
           "EEVEE's Glossy Color pass of the artist-settings render (the render that gives rest): how strongly each "
-          "surface reflects, per channel (a metal's colour, a dielectric's Fresnel-weighted specular). Not a network "
-          "input: a shot's reflection map (model/infer/reflmap.py) corrects EEVEE's reflections by gloss x its field.",
+          "surface reflects, per channel (a metal's colour, a dielectric's Fresnel-weighted specular). A shot's "
+          "reflection map (model/infer/reflmap.py) corrects EEVEE's reflections by gloss x its field; the input of "
+          "head residual_combined_gloss (metal takes the light a GI-off render lacks; session 29).",
           render_pass="Glossy Color", preview="color"),
     Group("eevee_diffuse", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE's own diffuse light at the artist's settings with ray tracing and fast GI on: the Diffuse Direct "
@@ -167,14 +175,15 @@ STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi", "scene_comb")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "surround", "rest", "gloss", "eevee_diffuse", "eevee_local", "eevee_combined", "eevee",
-                                  "ref_diffuse", "ref")
+                                  "emit_direct", "surround", "sky", "rest", "gloss", "eevee_diffuse", "eevee_local",
+                                  "eevee_combined", "eevee", "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
-OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "rest",
+OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "sky", "rest",
                                     "gloss", "eevee_diffuse", "eevee_local", "eevee_combined", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                 "emit_direct", "surround", "eevee_diffuse", "eevee_local", "eevee_combined", "lit",
+                                 "emit_direct", "surround", "sky", "eevee_diffuse", "eevee_local", "eevee_combined",
+                                 "gloss", "lit",
                                  "scene", "glow", "scene_gi", "scene_comb")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").

@@ -1,7 +1,10 @@
-"""Add the surround group to dataset folders baked before it existed (ssgi_addon/pipeline/surround_fill.py).
+"""Add the surround group (or, with --group sky, the sky group) to dataset folders baked before they held it
+(ssgi_addon/pipeline/surround_fill.py).
 
     .venv/bin/python scripts/add_surround.py /work/data/artist1 /work/data/studio1
+    .venv/bin/python scripts/add_surround.py --group sky /work/data/artist1
 """
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -11,13 +14,15 @@ import cli  # noqa: E402
 
 cli.load_package()
 from ssgi.model.errors import UserError  # noqa: E402
-from ssgi.ssgi_addon.pipeline.surround_fill import add_surround  # noqa: E402
+from ssgi.ssgi_addon.pipeline.surround_fill import FILLABLE, add_group  # noqa: E402
 
-if len(sys.argv) < 2:
-    sys.exit("usage: add_surround.py DIR [DIR ...]")
-for d in sys.argv[1:]:
+ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+ap.add_argument("dirs", nargs="+", metavar="DIR", help="dataset folders (merged: cli.py merge DIR first)")
+ap.add_argument("--group", default="surround", choices=FILLABLE, help="the group to add (surround)")
+a = ap.parse_args()
+for d in a.dirs:
     try:
-        r = add_surround(d, log=lambda m: print(m, file=sys.stderr))
+        r = add_group(d, a.group, log=lambda m: print(m, file=sys.stderr))
     except UserError as e:
         sys.exit(f"add_surround: {e}")
     print(json.dumps(r))

@@ -120,6 +120,19 @@ def one_render_shot_fit(tmp_path, *kind: str) -> tuple[Path, Path, dict, dict]:
     return blend, model, json.loads(p.stdout), torch.load(model, map_location="cpu", weights_only=False)
 
 
+def strip_group(folder: Path, group: str, key: str = "000000") -> None:
+    """Make ``folder`` look as an older bake wrote it: sample ``key`` without ``group``'s channels, a manifest
+    without the group."""
+    from ssgi.model.dataset import exrio
+    path = Path(folder) / f"{key}.exr"
+    planes, header = exrio.read_exr(path)
+    exrio.write_exr(path, {c: p for c, p in planes.items() if not c.startswith(group + ".")},
+                    header={k: v for k, v in header.items() if k.startswith("ssgi")})
+    m = json.loads((Path(folder) / "manifest.json").read_text())
+    m["channel_spec"] = [g for g in m["channel_spec"] if g["name"] != group]
+    (Path(folder) / "manifest.json").write_text(json.dumps(m))
+
+
 def run_cli(*args: str, timeout: float = 600, check: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
     """Run ``cli.py ARGS`` in a subprocess with isolated user resources."""
     user = _user_dir()

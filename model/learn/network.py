@@ -12,6 +12,9 @@ LOSS SPACE: ``log1p`` of linear HDR RGB (N x 3 x H x W). ``to_linear`` maps it b
               prediction = log1p(max(C + albedo * (expm1(s) - b), 0))   (needs albedo, eevee_combined)
               o = 0 is EEVEE's image itself; albedo 0 (metal, glass, sky) keeps C exactly; the light the network
               adds, albedo * (expm1(s) - b), may be negative (down to -C where the albedo is above the floor).
+    residual_combined_gloss  as residual_combined with albedo + gloss (EEVEE's Glossy Color pass, clamped to 1) in
+              place of albedo: metal, whose albedo is 0, takes light too (the reflections of the room a GI-off
+              render lacks; session 29). Needs gloss in the inputs as well.
 
 ``demod``/``residual`` predict the irradiance ("shading") and multiply by albedo: an all-black albedo gives
 exactly 0, and ``residual`` starts from the direct light (o = 0 is the local-illumination image).
@@ -58,7 +61,9 @@ HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
               # GI-off one-render models: from EEVEE's diffuse light without its GI (lamps, emitter proxies, world)
               "residual_local": ("albedo", "eevee_local"),
               # ... and from that render's Combined image alone (no Diffuse Direct pass: target ref_combined)
-              "residual_combined": ("albedo", "eevee_combined")}
+              "residual_combined": ("albedo", "eevee_combined"),
+              # ... with the Glossy Color pass beside the albedo: metal takes light too
+              "residual_combined_gloss": ("albedo", "eevee_combined", "gloss")}
 ALBEDO_FLOOR = ch.COMBINED_ALBEDO_FLOOR  # residual_combined: the albedo C / albedo is divided by at least
 
 class Head(nn.Module):
@@ -75,12 +80,15 @@ class Head(nn.Module):
         self.alb = (lay["albedo"].start, lay["albedo"].stop) if "albedo" in lay else None
         base = need[kind][1] if kind.startswith("residual") else "direct"
         self.dir = (lay[base].start, lay[base].stop) if base in lay else None
+        self.gls = (lay["gloss"].start, lay["gloss"].stop) if kind == "residual_combined_gloss" else None
 
     def forward(self, o: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
         if self.kind == "log":
             return o
-        if self.kind == "residual_combined":
+        if self.kind in ("residual_combined", "residual_combined_gloss"):
             albedo = x[:, self.alb[0]:self.alb[1]]
+            if self.gls is not None:
+                albedo = (albedo + x[:, self.gls[0]:self.gls[1]]).clamp_max(1.0)
             c = torch.expm1(x[:, self.dir[0]:self.dir[1]])  # the input holds log1p(C)
             b = c / albedo.clamp_min(ALBEDO_FLOOR)
             s = torch.relu(torch.log1p(b) + o).clamp_max(LOG_MAX)

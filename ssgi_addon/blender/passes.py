@@ -608,12 +608,13 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
 WORLD_SAMPLES = 1
 # groups rendered by a render of their own (direct_light.py: soft direct light; the emitters' direct light, a
 # Cycles render), in this order
-OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct", "surround")  # surround: ray casts, no render
+# sky: the world's L1 light at the normal (sky.py: a small Cycles image of the world alone, no render of the scene)
+OWN_RENDER_GROUPS = ("world", "direct_soft", "emit_direct", "surround", "sky")  # surround: ray casts, no render
 # every input group a render of the scene gives (emit_direct is Cycles', surround ray casts, the rest EEVEE's), and
 # the extras the render path asks for: "vector" (EEVEE's motion vectors, from the direct-only raster render; the
 # temporal mode)
 EXTRA_GROUPS: tuple[str, ...] = ("vector",)
-INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround") + EXTRA_GROUPS + REST_LIGHT_GROUPS
+INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround", "sky") + EXTRA_GROUPS + REST_LIGHT_GROUPS
                                         + REST_ONLY_GROUPS)
 
 
@@ -648,6 +649,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     for g in groups:
         if g not in INPUT_RENDER_GROUPS:
             raise ValueError(f"group {g!r} is not rendered from the scene; those are: {INPUT_RENDER_GROUPS}")
+    asked = groups
+    if "sky" in groups and "normal" not in groups:  # (the sky group is the world's light at the normal)
+        groups += ("normal",)
     _check_camera(scene)
     last_timings.clear()
     last_sources.clear()
@@ -707,6 +711,11 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_sources.update({g: "rest" if g in rest_groups + ("rest",) else "raster" if g in raster else g for g in groups})
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
+    if "sky" in groups:
+        from .sky import render_sky
+        sky = timed("sky", render_sky, scene, out["normal"])
+        out = {g: sky if g == "sky" else out[g] for g in asked if g in out or g == "sky"} \
+            | ({"beauty": out["beauty"]} if "beauty" in out else {})
     return out
 
 

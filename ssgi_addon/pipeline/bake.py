@@ -30,13 +30,15 @@ CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
 # (nor the render path's extras: the motion vectors are not a network input)
 BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS
                           if g not in ("rest",) + passes.EXTRA_GROUPS + passes.REST_ONLY_GROUPS)
-BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_GROUPS) + CYCLES_SAMPLE_GROUPS
+# (sky, the world's L1 light at the normal: only the one-render bakes hold it, session 29)
+BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_GROUPS + ("sky",)) + CYCLES_SAMPLE_GROUPS
 # a one-render bake (--gi-samples N; issue 15, docs/one_render.md): what one-render models read, all of it from
 # the artist-settings render at N samples with ray tracing and fast GI on (eevee_diffuse, albedo, normal, depth,
-# emission) and the image composed from it (rest); surround (ray casts); the 1-sample direct-only raster's
+# emission) and the image composed from it (rest); surround (ray casts); sky (the world's L1 light at the normal,
+# no render of the scene; session 29); the 1-sample direct-only raster's
 # direct, ao and eevee (groups every sample holds; cheap); the references. No world, direct_soft, emit_direct:
 # those three renders are what a one-render model does without.
-ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission", "eevee", "surround",
+ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission", "eevee", "surround", "sky",
                           "eevee_diffuse", "rest") + CYCLES_SAMPLE_GROUPS
 # the kinds of one-render bake (--one-render): "gi" as above; "local", the one render made with ray tracing and fast
 # GI off and the emitter proxies on (passes.ONE_RENDER_MODES), its Diffuse Direct stored as eevee_local, and its Glossy

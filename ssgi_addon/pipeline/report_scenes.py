@@ -49,7 +49,11 @@ class EvalScene:
         self.t_extra = {}
         for e in extra:
             t = time.perf_counter()
-            g.update(passes.render_gbuffer(scene, (e,), samples=samples))
+            if e == "sky":  # the world's light at the normal just rendered: no render of its own
+                from ..blender.sky import render_sky
+                g["sky"] = render_sky(scene, g["normal"])
+            else:
+                g.update(passes.render_gbuffer(scene, (e,), samples=samples))
             self.t_extra[e] = time.perf_counter() - t
         if w is not None:
             g["world"] = w

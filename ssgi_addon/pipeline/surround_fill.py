@@ -1,9 +1,12 @@
-"""Add the ``surround`` group (ssgi_addon/blender/surround.py) to a dataset folder baked before it existed.
+"""Add the ``surround`` group (ssgi_addon/blender/surround.py), or the ``sky`` group (ssgi_addon/blender/sky.py), to
+a dataset folder baked before it held it.
 
     summary = add_surround("/work/data/artist1")      # scripts/add_surround.py DIR [DIR ...]
+    summary = add_group("/work/data/artist1", "sky")  # scripts/add_surround.py --group sky DIR [DIR ...]
 
-The group is geometry seen from the camera, no render: each sample's scene is rebuilt (a random room from its
-seed and the folder's room mode; a ``bake --scenes`` sample from its .blend, camera and frame), probed, and the
+Neither group needs a render of the scene (surround: rays cast from the camera; sky: the world's L1 light at the
+sample's stored normal, from a small Cycles image of the world alone): each sample's scene is rebuilt (a random room
+from its seed and the folder's room mode; a ``bake --scenes`` sample from its .blend, camera and frame), probed, and the
 sample rewritten with the group added (atomically, the other channels as they were: half stays half), then the
 manifest lists the group. A sample that has it already is skipped, so a killed run resumes. Before writing, the
 rebuilt scene is checked against the sample: a ray straight ahead must hit at the stored depth of the centre
@@ -44,11 +47,21 @@ def _near_edge(depth: np.ndarray) -> bool:
     return float(win.max() / max(win.min(), 1e-6)) > 1.05
 
 
+FILLABLE = ("surround", "sky")
+
+
 def add_surround(folder, log=print) -> dict:
+    return add_group(folder, "surround", log)
+
+
+def add_group(folder, group: str = "surround", log=print) -> dict:
     import bpy
 
-    from ..blender import room, surround
+    from ..blender import room, sky, surround
     from ..blender.blendfile import open_blend
+
+    if group not in FILLABLE:
+        raise UserError(f"group {group!r} cannot be added to a baked folder; these can: {', '.join(FILLABLE)}")
 
     folder = Path(folder)
     man_path = folder / ds.MANIFEST
@@ -75,7 +88,7 @@ def add_surround(folder, log=print) -> dict:
         meta = manifest["samples"][key]
         path = ds.sample_path(folder, key)
         planes, header = exrio.read_exr(path)
-        if all(c in planes for c in ch.GROUPS["surround"].channels):
+        if all(c in planes for c in ch.GROUPS[group].channels):
             skipped += 1
             continue
         if kind == "scenes":
@@ -94,17 +107,20 @@ def add_surround(folder, log=print) -> dict:
             bad[key] = why
             log(f"{path}: not filled: {why}")
             continue
-        vals = surround.probe(scene)
         h, w = depth.shape[:2]
-        for i, c in enumerate(ch.GROUPS["surround"].channels):
-            planes[c] = np.full((h, w), vals[i], np.float32)
+        if group == "surround":
+            vals = np.broadcast_to(surround.probe(scene), (h, w, len(ch.SURROUND_COMPONENTS)))
+        else:  # the stored normal, camera space, as the baker wrote it
+            vals = sky.render_sky(scene, np.stack([planes[c] for c in ch.GROUPS["normal"].channels], axis=-1))
+        for i, c in enumerate(ch.GROUPS[group].channels):
+            planes[c] = np.ascontiguousarray(vals[..., i], np.float32)
         hdr = {k: v for k, v in header.items() if str(k).startswith("ssgi")}
         exrio.write_exr(path, planes, half=bool(settings.get("half", True)), header=hdr)
         done += 1
         if done % 50 == 0:
             log(f"{folder.name}: {done} filled")
     if not bad:
-        groups = ds.stored_groups(manifest) + ("surround",)
+        groups = ds.stored_groups(manifest) + (group,)
         manifest["channel_spec"] = ch.describe(tuple(dict.fromkeys(groups)))
         ds.write_manifest(folder, manifest)
     return dict(folder=str(folder), filled=done, had_it=skipped, not_filled=bad,

@@ -203,3 +203,36 @@ def test_the_temporal_blend_keeps_a_combined_models_negative_light():
     assert (mixed[:, :4] < part[:, :4]).all()  # blended towards the darker history, below 0
     # unsigned (a diffuse-part model), the same negative part would be clamped to 0: what darkened nothing before
     assert (tp.blend(part, alb, hist)[:, :4] == 0).all()
+
+
+def test_the_gloss_head_lets_metal_take_light_and_keeps_eevees_image_where_neither_albedo_nor_gloss():
+    import torch
+
+    from ssgi.model.learn import network
+    spec = SPEC + ("gloss",)
+    g = _groups()
+    gloss = np.zeros_like(g["albedo"])
+    gloss[0, :2] = (0.9, 0.7, 0.3)  # a gold metal: no diffuse colour, a glossy one
+    g["gloss"] = gloss
+    net = network.build(network.arch_for("unet_s", ",".join(spec), target=ch.COMBINED_TARGET,
+                                         head="residual_combined_gloss"))
+    last = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+
+    def image(bias):
+        with torch.no_grad():
+            last.weight.zero_()
+            last.bias.fill_(bias)
+            x, _ = normalize.to_inputs(g, spec)
+            return np.expm1(net.eval()(torch.from_numpy(x).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy())
+
+    c = g["eevee_combined"]
+    assert np.allclose(image(0.0), c, rtol=1e-4, atol=1e-5)  # o = 0: EEVEE's image
+    up = image(1.0)
+    metal, black = np.zeros((16, 24), bool), np.zeros((16, 24), bool)
+    metal[0, :2], black[0, 2:4] = True, True
+    assert (up[metal] > c[metal] * 1.5).all()  # the metal takes light (residual_combined keeps it as it is)
+    assert np.allclose(up[black], c[black], rtol=1e-4, atol=1e-5)  # neither albedo nor gloss: EEVEE's
+    assert (up[~metal & ~black] > c[~metal & ~black]).all()
+    with pytest.raises(UserError, match="gloss"):
+        network.build(network.arch_for("unet_s", ",".join(SPEC), target=ch.COMBINED_TARGET,
+                                       head="residual_combined_gloss"))

@@ -14,12 +14,14 @@ import torch
 
 from ssgi.model import channels as ch
 from ssgi.model.errors import UserError
-from ssgi.model.infer import export, onnx as ort_backend, predictor
+from ssgi.model.infer import compose, export, onnx as ort_backend, predictor
 from ssgi.model.learn import checkpoint, network
 
 from ..conftest import ROOT
 
 SHIPPED = ROOT / "models" / "ssgi_default.pt"
+# the one-render model (issue 15, session 29): one GI-off EEVEE render, the sky group
+SHIPPED_ONE = ROOT / "models" / "ssgi_one_render.pt"
 SIZES = ((1, 1, None), (7, 5, None), (64, 36, None), (203, 131, 96), (33, 301, 64))  # width, height, tile
 
 
@@ -36,14 +38,14 @@ def _checkpoint(path: Path, variant: str, seed: int = 0, inputs=ch.DEFAULT_INPUT
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
     d = tmp_path_factory.mktemp("onnx")
-    out = {"shipped": SHIPPED}
+    out = {"shipped": SHIPPED, "shipped_one_render": SHIPPED_ONE}
     for v in ("fssgi", "unet", "linear"):
         out[v] = _checkpoint(d / f"{v}.pt", v)
         export.export(out[v], command="test")
     return out
 
 
-@pytest.mark.parametrize("name", ["shipped", "fssgi", "unet", "linear"])
+@pytest.mark.parametrize("name", ["shipped", "shipped_one_render", "fssgi", "unet", "linear"])
 def test_onnx_equals_torch_within_1e4_relative_on_hdr_inputs_tiled_and_untiled(models, name):
     pt = models[name]
     a = predictor.load_predictor(pt, runtime="torch", precision="fp32", device="cpu")
@@ -53,27 +55,32 @@ def test_onnx_equals_torch_within_1e4_relative_on_hdr_inputs_tiled_and_untiled(m
     for w, h, tile in SIZES:
         g = export.hdr_groups(w, h, seed=w)
         assert max(float(g["direct"].max()), 1.0) > (1e3 if w * h > 100 else 0)  # HDR light, to 1e4
-        ya, yb = a.predict(g, tile=tile), b.predict(g, tile=tile)
+        def image(p, tile):  # a combined model's prediction is signed (image - EEVEE's): compare the images
+            y = p.predict(g, tile=tile)
+            return compose.compose(y, g, p.target) if p.target == ch.COMBINED_TARGET else y
+
+        ya, yb = image(a, tile), image(b, tile)
         assert yb.shape == (h, w, 3) and yb.dtype == np.float32 and np.isfinite(yb).all()
         assert export.rel_diff(yb, ya) <= 1e-4, (name, w, h, tile)
         assert float(ya.max()) > 0 or w * h < 100
         if tile:  # the tiles' kept cores equal the untiled result in onnxruntime as in torch
-            assert export.rel_diff(b.predict(g, tile=None), yb) <= 1e-5
+            assert export.rel_diff(image(b, None), yb) <= 1e-5
     # the comparison bites: a different network is far off
     other = predictor.load_predictor(models["fssgi" if name != "fssgi" else "unet"], runtime="onnx")
     if other.inputs == b.inputs:
         assert export.rel_diff(other.predict(g), yb) > 1e-2
 
 
-def test_shipped_onnx_is_the_reproducible_export_of_the_shipped_checkpoint(tmp_path):
-    shipped = SHIPPED.with_suffix(".onnx")
-    assert ort_backend.export_of(SHIPPED) == shipped  # its source_sha256 is the shipped .pt's
+@pytest.mark.parametrize("pt", [SHIPPED, SHIPPED_ONE], ids=["default", "one_render"])
+def test_shipped_onnx_is_the_reproducible_export_of_the_shipped_checkpoint(tmp_path, pt):
+    shipped = pt.with_suffix(".onnx")
+    assert ort_backend.export_of(pt) == shipped  # its source_sha256 is the shipped .pt's
     meta = {p.key: json.loads(p.value) for p in onnx.load(str(shipped)).metadata_props}
-    ck = checkpoint.load(SHIPPED)
+    ck = checkpoint.load(pt)
     for k in ("inputs", "channel_spec", "arch", "best", "history", "command", "dataset", "normalization"):
         assert meta[k] == json.loads(json.dumps(ck[k], default=str)), k
     again = tmp_path / "again.onnx"
-    res = export.export(SHIPPED, again, command=meta["export_command"])
+    res = export.export(pt, again, command=meta["export_command"])
     assert again.read_bytes() == shipped.read_bytes(), "re-export differs: run the export_command in its metadata"
     assert res["parity"]["max_rel"] <= export.PARITY_RTOL
 
