@@ -56,6 +56,8 @@ renders = 0  # world_env renders made by world_coefficients (tests read it)
 def _value(v):
     if isinstance(v, (bool, int, float, str)) or v is None:
         return v
+    if isinstance(v, (set, frozenset)):  # enum flags
+        return tuple(sorted(map(str, v)))
     try:
         return tuple(_value(x) for x in v)
     except TypeError:
