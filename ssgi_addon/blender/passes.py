@@ -707,16 +707,13 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
             out["rest"] = made[0]
         if rest_groups:
             out.update(made[2])
-    out = {g: out[g] for g in groups if g in out} | ({"beauty": out["beauty"]} if "beauty" in out else {})
-    last_sources.update({g: "rest" if g in rest_groups + ("rest",) else "raster" if g in raster else g for g in groups})
+    last_sources.update({g: "rest" if g in rest_groups + ("rest",) else "raster" if g in raster else g for g in asked})
     if "normal" in out:
         out["normal"] = world_to_camera_normals(out["normal"], camera_rotation(scene))
     if "sky" in groups:
         from .sky import render_sky
-        sky = timed("sky", render_sky, scene, out["normal"])
-        out = {g: sky if g == "sky" else out[g] for g in asked if g in out or g == "sky"} \
-            | ({"beauty": out["beauty"]} if "beauty" in out else {})
-    return out
+        out["sky"] = timed("sky", render_sky, scene, out["normal"])
+    return {g: out[g] for g in asked if g in out} | ({"beauty": out["beauty"]} if "beauty" in out else {})
 
 
 def configure_cycles(scene, samples: int, seed: int = 0, denoise: bool = False, threads: int = 0) -> None:

@@ -1,7 +1,7 @@
 """Add the ``surround`` group (ssgi_addon/blender/surround.py), or the ``sky`` group (ssgi_addon/blender/sky.py), to
 a dataset folder baked before it held it.
 
-    summary = add_surround("/work/data/artist1")      # scripts/add_surround.py DIR [DIR ...]
+    summary = add_group("/work/data/artist1")         # scripts/add_surround.py DIR [DIR ...]
     summary = add_group("/work/data/artist1", "sky")  # scripts/add_surround.py --group sky DIR [DIR ...]
 
 Neither group needs a render of the scene (surround: rays cast from the camera; sky: the world's L1 light at the
@@ -48,10 +48,6 @@ def _near_edge(depth: np.ndarray) -> bool:
 
 
 FILLABLE = ("surround", "sky")
-
-
-def add_surround(folder, log=print) -> dict:
-    return add_group(folder, "surround", log)
 
 
 def add_group(folder, group: str = "surround", log=print) -> dict:
