@@ -189,6 +189,51 @@ def has_emitters(scene) -> bool:
     return False
 
 
+def _socket_lit(sock) -> bool:
+    """``_lit_input`` for a socket of any kind: linked, or a default above 0 (a colour's RGB, a vector's any)."""
+    if sock.is_linked:
+        return True
+    v = getattr(sock, "default_value", 0.0)
+    try:
+        return max(float(c) for c in list(v)[:3]) > 0.0
+    except TypeError:
+        return float(v) > 0.0
+
+
+def _tree_may_emit(tree, seen: set) -> bool:
+    """Whether a shader node tree holds a node that may add to EEVEE's Emission pass: an Emission shader or a
+    Principled BSDF whose emission may be above 0 (``_emission_sockets``), a Background shader, any other node with
+    an emission or blackbody input that may be above 0 (the Specular BSDF's Emissive Color, a volume's emission), or a
+    group whose tree does (``seen``: trees already looked at)."""
+    if tree is None or tree.as_pointer() in seen:  # (not by name: every material's own tree is "Shader Nodetree")
+        return False
+    seen.add(tree.as_pointer())
+    for n in tree.nodes:
+        if n.bl_idname in EMISSION_INPUTS:
+            if _emission_sockets(n) is not None:
+                return True
+            continue
+        if n.bl_idname == "ShaderNodeBackground":
+            return True
+        if n.bl_idname == "ShaderNodeGroup":
+            if _tree_may_emit(n.node_tree, seen):
+                return True
+            continue
+        if any(("emissi" in s.name.lower() or "blackbody" in s.name.lower()) and _socket_lit(s) for s in n.inputs):
+            return True
+    return False
+
+
+def materials_may_emit() -> bool:
+    """False only when no material of the file that anything uses can write EEVEE's Emission pass
+    (``_tree_may_emit``): then that pass is black to the bit in any render (lights and the world write other
+    passes), so the render path need not write it (``passes.SKIP_EMPTY_EMISSION``). Every used material of the file
+    is looked at, not only the scene's objects', so that materials that reach the render by collection instances,
+    geometry nodes or linked libraries count too."""
+    seen: set = set()
+    return any(m.users and _tree_may_emit(m.node_tree, seen) for m in bpy.data.materials)
+
+
 def _constant_emission(mat):
     """(strength, (r, g, b)) of a material whose light comes from one Principled BSDF or Emission node with
     constant (unlinked) emission inputs; None for anything else (textured or linked emission, groups, several

@@ -373,8 +373,14 @@ def casts_no_shadow(scene) -> bool:
 # unshadowed proxy 29.0 against 10.7), and the image is the same to the bit (max |difference| 0 in every pass;
 # session 24, docs/one_render.md). The baseline EEVEE GI render of the reports keeps the scene's own setting.
 SKIP_UNUSED_SHADOWS = True
-# whether the last _render turned the shadows off (casts_no_shadow)
-last_render = {"shadows_skipped": False}
+# whether the last _render turned the shadows off (casts_no_shadow); whether the last render_rest left the Emission
+# pass out (SKIP_EMPTY_EMISSION)
+last_render = {"shadows_skipped": False, "emission_skipped": False}
+# Whether render_rest leaves the Emission pass out where no used material of the file can write it
+# (direct_light.materials_may_emit) and gives the emission group as zeros: yes. The pass is black to the bit there
+# (tests/blender/test_pass_merge.py), and on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of
+# 22.5 (session 30, benchmarks/pass_flags.py; docs/one_render.md).
+SKIP_EMPTY_EMISSION = True
 
 
 @contextlib.contextmanager
@@ -547,6 +553,14 @@ REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_
 REST_EMITTER_PROXIES = True
 
 
+def _tree_reads_pass(scene, name: str) -> bool:
+    """Whether a link leaves the pass socket ``name`` of a Render Layers node in the scene's compositor tree (the
+    render path's stand-in for that node is the render's own file, so such a pass must be in it)."""
+    tree = getattr(scene, "compositing_node_group", None)
+    return tree is not None and any(l.from_node.bl_idname == "CompositorNodeRLayers" and l.from_socket.name == name
+                                    for l in tree.links)
+
+
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
                 proxy_shadows: bool = True, proxy_sides: str = "both", rest: bool = True):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
@@ -587,9 +601,18 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
             scene.eevee.use_raytracing = scene.eevee.use_fast_gi = bool(gi)
         no_light_culled(scene)
         vl = scene.view_layers[0]
-        for f in (REST_PASSES if rest else ()) + tuple(ch.GROUPS[g].blender_pass for g in groups):
+        # the Emission pass of a file where nothing can emit is black: not written, zeros instead (exact)
+        # (the view layer's flag, which setup_scene turns on for the model's passes, is off for the render and put
+        # back after it; kept on where the artist's compositor tree reads the pass from a Render Layers node)
+        black = ("emission",) if ("emission" in groups and SKIP_EMPTY_EMISSION
+                                  and not _tree_reads_pass(scene, PASS_NAMES["emission"])
+                                  and not direct_light.materials_may_emit()) else ()
+        last_render["emission_skipped"] = bool(black)
+        for f in (REST_PASSES if rest else ()) + tuple(ch.GROUPS[g].blender_pass for g in groups if g not in black):
             if f:  # (eevee_combined: the Combined pass, always written)
                 setattr(vl, f, True)
+        for g in black:
+            setattr(vl, ch.GROUPS[g].blender_pass, False)
         t0 = time.perf_counter()
         passes = _render(scene)
         last_timings["rest"] = time.perf_counter() - t0
@@ -600,7 +623,9 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     if not groups:
         return made, combined
     return made, combined, {g: np.ascontiguousarray(combined[..., :3]) if g == "eevee_combined" else
-                            light if g in REST_LIGHT_GROUPS else _group(passes, g) for g in groups}
+                            light if g in REST_LIGHT_GROUPS else
+                            np.zeros(combined.shape[:2] + (3,), np.float32) if g in black else _group(passes, g)
+                            for g in groups}
 
 
 # The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
@@ -655,6 +680,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     _check_camera(scene)
     last_timings.clear()
     last_sources.clear()
+    last_render["emission_skipped"] = False
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
     ones = [g for g in groups if g in REST_LIGHT_GROUPS]
     if len({ONE_RENDER_MODES[g] for g in ones}) > 1:

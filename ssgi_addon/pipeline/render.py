@@ -282,6 +282,8 @@ class RenderSession:
                 info["t_pass_renders"] = dict(passes.last_timings)
                 # (the last pass render made without EEVEE's shadows: nothing in it casts one, passes.casts_no_shadow)
                 info["shadows_skipped"] = passes.last_render["shadows_skipped"]
+                # (its Emission pass left out: no material of the file can emit, passes.SKIP_EMPTY_EMISSION)
+                info["emission_skipped"] = passes.last_render["emission_skipped"]
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()

@@ -230,3 +230,112 @@ def test_a_render_in_which_nothing_casts_a_shadow_skips_eevees_shadows_and_gives
     assert res["mean_beauty"] > 0.01, res
     assert all(d == 0.0 for d in res["max_abs"].values()), res
     assert res["skipped_with_shadowed_lamp"] is False, res
+
+
+EMIT_CODE = r'''
+import json, sys
+import numpy as np
+import bpy
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import artist_scenes
+from ssgi.ssgi_addon.blender import direct_light, passes
+
+res = {}
+sc = artist_scenes.build("closed_room", size=(48, 27))
+sc.eevee.taa_render_samples = 2
+res["closed_may_emit"] = direct_light.materials_may_emit()
+groups = ("albedo", "normal", "depth", "emission", "eevee_combined")
+out = {}
+sc.view_layers[0].use_pass_emit = True  # as compositor.setup_scene leaves it for a model that reads emission
+for skip in (True, False):
+    passes.SKIP_EMPTY_EMISSION = skip
+    g = passes.render_gbuffer(sc, groups)
+    res[f"skipped_{skip}"] = passes.last_render["emission_skipped"]
+    res[f"emit_flag_after_{skip}"] = sc.view_layers[0].use_pass_emit
+    out[skip] = g
+passes.SKIP_EMPTY_EMISSION = True
+# the artist's compositor reads the Emission pass: it is written (the render path's stand-in is the render's file)
+tree = bpy.data.node_groups.new("comp", "CompositorNodeTree")
+sc.compositing_node_group = tree
+rl = tree.nodes.new("CompositorNodeRLayers")
+mix = tree.nodes.new("ShaderNodeMix")
+mix.data_type = "RGBA"
+tree.links.new(rl.outputs["Emission"], mix.inputs["A"] if "A" in mix.inputs else mix.inputs[6])
+passes.render_gbuffer(sc, groups)
+res["skipped_tree_reads"] = passes.last_render["emission_skipped"]
+sc.compositing_node_group = None
+res["max_abs"] = {k: float(np.abs(out[True][k] - out[False][k]).max()) for k in groups}
+res["emission_max"] = float(np.abs(out[False]["emission"]).max())
+res["shape"] = list(out[True]["emission"].shape) == list(out[False]["emission"].shape)
+res["mean_beauty"] = float(out[True]["eevee_combined"].mean())
+# what may write the Emission pass, one material at a time on the crate
+crate = bpy.data.objects["crate"]
+def with_material(build):
+    m = bpy.data.materials.new("probe")
+    build(m.node_tree)
+    crate.material_slots[0].material = m
+    r = direct_light.materials_may_emit()
+    crate.material_slots[0].material = bpy.data.materials["crate_blue"]
+    bpy.data.materials.remove(m)
+    return r
+def principled_strength(nt, v=2.0):
+    nt.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = v
+def principled_linked(nt):
+    t = nt.nodes.new("ShaderNodeTexNoise")
+    nt.links.new(t.outputs["Fac"], nt.nodes["Principled BSDF"].inputs["Emission Strength"])
+def specular(nt):
+    s = nt.nodes.new("ShaderNodeEeveeSpecular")
+    s.inputs["Emissive Color"].default_value = (0.3, 0.2, 0.1, 1.0)
+    nt.links.new(s.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+def grouped(emitting):
+    def build(nt):
+        grp = bpy.data.node_groups.new("inner", "ShaderNodeTree")
+        grp.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+        e = grp.nodes.new("ShaderNodeEmission" if emitting else "ShaderNodeBsdfDiffuse")
+        if emitting:
+            e.inputs["Strength"].default_value = 3.0
+        o = grp.nodes.new("NodeGroupOutput")
+        grp.links.new(e.outputs[0], o.inputs[0])
+        n = nt.nodes.new("ShaderNodeGroup")
+        n.node_tree = grp
+        nt.links.new(n.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    return build
+res["probes"] = {"principled_0": with_material(lambda nt: principled_strength(nt, 0.0)),
+                 "principled_2": with_material(principled_strength),
+                 "principled_linked": with_material(principled_linked),
+                 "specular_emissive": with_material(specular),
+                 "group_emission": with_material(grouped(True)),
+                 "group_diffuse": with_material(grouped(False))}
+unused = bpy.data.materials.new("unused_lamp")
+unused.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 5.0
+res["unused_emitter"] = direct_light.materials_may_emit()
+# an emitter in the file: the pass is written
+crate.material_slots[0].material = unused
+g = passes.render_gbuffer(sc, groups)
+res["emitter_skipped"] = passes.last_render["emission_skipped"]
+res["emitter_emission_max"] = float(g["emission"].max())
+print("RESULT", json.dumps(res))
+'''
+
+
+def test_where_no_material_can_emit_the_render_path_leaves_the_emission_pass_out_and_gives_the_same_groups():
+    """passes.SKIP_EMPTY_EMISSION (session 30): in the artist test set's closed room (diffuse Principled materials, a
+    point lamp, a black world) no used material can emit (direct_light.materials_may_emit), so the one render
+    leaves the Emission pass out: every group, the image and the zero emission equal those of the render that writes
+    the pass (whose Emission is black to the bit), and the artist's pass flag is back afterwards. Emission Strength 0
+    does not count as an emitter; a Principled emission strength above 0 or linked, a Specular BSDF's Emissive Color
+    and an Emission shader inside a node group do; an unused emissive material does not, and once a mesh uses it the
+    pass is written and is bright; so it is where the artist's compositor reads it from a Render Layers node."""
+    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + EMIT_CODE, timeout=600)
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert res["closed_may_emit"] is False, res
+    assert (res["skipped_True"], res["skipped_False"]) == (True, False), res
+    assert res["emit_flag_after_True"] is True and res["emit_flag_after_False"] is True, res
+    assert res["skipped_tree_reads"] is False, res
+    assert res["shape"] and res["mean_beauty"] > 0.01, res
+    assert res["emission_max"] == 0.0, res
+    assert all(d == 0.0 for d in res["max_abs"].values()), res
+    assert res["probes"] == {"principled_0": False, "principled_2": True, "principled_linked": True,
+                             "specular_emissive": True, "group_emission": True, "group_diffuse": False}, res
+    assert res["unused_emitter"] is False, res
+    assert res["emitter_skipped"] is False and res["emitter_emission_max"] > 0.5, res
