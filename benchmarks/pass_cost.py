@@ -209,6 +209,7 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
             r["paired_cpu_ratios_plain"] = [round(c / g, 3) for c, g in zip(cpus, plain_cpu)]
         r["shadows_skipped"] = bool(info.get("shadows_skipped"))
         r["emission_skipped"] = bool(info.get("emission_skipped"))
+        r["normals_from_depth"] = bool(info.get("normals_from_depth"))
         if noshadow:
             r["ratio_to_eevee_gi_plain_noshadow"] = round(info["t_total"] / row["eevee_gi_plain_noshadow_s"], 2)
             r["cpu_ratio_to_eevee_gi_plain_noshadow"] = round(r["frame_cpu_s"] / row["eevee_gi_plain_noshadow_cpu_s"], 3)

@@ -17,7 +17,9 @@ surface writes, with the emitter proxies (direct_light.emitter_proxies) casting 
 (session 21; ``one_open_proxies``: unshadowed, only on the sides facing open space, the default since
 session 23). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
 with ray tracing and fast GI off as NAME_no_gi, and any (either) with EEVEE's shadows off as NAME_no_shadows (what
-the shadow pipeline costs: session 24, the renders SSGI makes where nothing casts a shadow, ``passes.casts_no_shadow``).
+the shadow pipeline costs: session 24, the renders SSGI makes where nothing casts a shadow, ``passes.casts_no_shadow``),
+and any (either) as NAME_unculled with EEVEE's light threshold 0 and every lamp a cutoff distance, as SSGI's own
+renders make it (``passes.no_light_culled``; session 30).
 ``--filter-size PX``: the film filter of every render (default: the file's; Blender's default is 1.5 px; session 24:
 most of the passes' cost is the film's filter gather). ``--frame`` / ``--samples``: the frame and the EEVEE samples of
 every render (default: frame 1, the file's samples). Prints a yardstick of the machine's speed first
@@ -53,8 +55,9 @@ NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEV
 # configuration above also runs with both off as NAME_no_gi (``combined_no_gi`` is NO_GI), and so do the pass sets a
 # GI-off one-render frame could read: colour + diffuse light + the upsampler's normal and depth (ssgi4), colour +
 # diffuse light (ssgi2), colour + normal + depth (ssgi3: a model that reads the Combined pass instead of the light).
+# ssgi_cz: colour + depth, the normals derived from the depth (passes.NORMALS_FROM_DEPTH; session 30)
 GI_OFF_SETS: dict[str, tuple[str, ...]] = {"ssgi4": PASSES[:4], "ssgi2": PASSES[:2],
-                                           "ssgi3": (PASSES[0], PASSES[2], PASSES[3])}
+                                           "ssgi3": (PASSES[0], PASSES[2], PASSES[3]), "ssgi_cz": (PASSES[0], PASSES[3])}
 # the GI-off one render of a shot fit (passes.ONE_RENDER_MODES["eevee_local"]): the five passes + Glossy Color (the
 # reflection map's), with the emitter proxies shadowed (sessions 20), unshadowed (21, the default) or absent:
 # {name: (passes, proxies: None = none, else their shadows)}
@@ -81,18 +84,39 @@ def cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None, shadows: bool = True
-           ) -> tuple[float, float]:
+UNCULLED = "_unculled"  # suffix: the render with no lamp culled, as SSGI's renders make it (passes.no_light_culled)
+
+
+@contextlib.contextmanager
+def _unculled(scene, on: bool):
+    """With ``on``, EEVEE's light threshold 0 and every lamp a cutoff distance (passes.no_light_culled), as every SSGI
+    render has them; the file's settings back on exit."""
+    from ssgi.ssgi_addon.blender import passes
+    lamps = {o.data: (o.data.use_custom_distance, o.data.cutoff_distance) for o in scene.objects if o.type == "LIGHT"}
+    saved = scene.eevee.light_threshold
+    try:
+        if on:
+            passes.no_light_culled(scene)
+        yield
+    finally:
+        scene.eevee.light_threshold = saved
+        for li, (use, dist) in lamps.items():
+            li.use_custom_distance, li.cutoff_distance = use, dist
+
+
+def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None, shadows: bool = True,
+           unculled: bool = False) -> tuple[float, float]:
     """(seconds, CPU seconds) of one render with exactly the passes ``on`` besides Combined, ray tracing + fast GI as
-    ``gi``, EEVEE's shadows as ``shadows``, and with ``proxies`` not None the emitter proxies (their shadows on / off,
-    which sides) in the scene during it."""
+    ``gi``, EEVEE's shadows as ``shadows``, with ``proxies`` not None the emitter proxies (their shadows on / off,
+    which sides) in the scene during it, and with ``unculled`` no lamp culled (``_unculled``)."""
     from ssgi.ssgi_addon.blender import direct_light
     vl = scene.view_layers[0]
     for f in optional_pass_flags(vl):
         setattr(vl, f, f in on)
     scene.eevee.use_raytracing = scene.eevee.use_fast_gi = gi
     scene.eevee.use_shadows = shadows
-    with direct_light.emitter_proxies(scene, *proxies) if proxies is not None else contextlib.nullcontext():
+    with direct_light.emitter_proxies(scene, *proxies) if proxies is not None else contextlib.nullcontext(), \
+            _unculled(scene, unculled):
         t, c = time.perf_counter(), cpu_s()
         bpy.ops.render.render(write_still=False)
         return time.perf_counter() - t, cpu_s() - c
@@ -128,13 +152,15 @@ def main(argv=None) -> int:
     ap.add_argument("--configs", nargs="+", default=None,
                     help=f"only these configurations, in this order each round (default all: "
                          f"{' '.join(CONFIGS)}, each also as NAME_no_gi, and {' '.join(GI_OFF_SETS)} as NAME_no_gi; "
-                         f"on request {' '.join(ONE_RENDER_SETS)}, each as NAME_no_gi; any as NAME_no_shadows)")
+                         f"on request {' '.join(ONE_RENDER_SETS)}, each as NAME_no_gi; any as NAME_no_shadows; any (either) "
+                         f"as NAME{UNCULLED}: no lamp culled, as SSGI's renders)")
     a = ap.parse_args(argv)
     # {name: (passes, ray tracing + fast GI, emitter proxies, EEVEE's shadows: True keeps the file's setting)}
     every = {**{k: (on, True, None, True) for k, on in CONFIGS.items()},
              **{f"{k}_no_gi": (on, False, None, True) for k, on in {**CONFIGS, **GI_OFF_SETS}.items()},
              **{f"{k}_no_gi": (on, False, prox, True) for k, (on, prox) in ONE_RENDER_SETS.items()}}
     every |= {f"{k}_no_shadows": (on, gi, prox, False) for k, (on, gi, prox, _s) in every.items()}
+    every |= {k + UNCULLED: v for k, v in every.items()}
     for k in a.configs or ():
         if k not in every:
             ap.error(f"--configs: unknown configuration {k!r}; known: {' '.join(every)}")
@@ -165,7 +191,8 @@ def main(argv=None) -> int:
         sc.render.resolution_x, sc.render.resolution_y = a.size
         for _ in range(a.repeats):
             for k, (on, gi, prox, shadows) in chosen.items():
-                wall, c = render(sc, on, gi=gi, proxies=prox, shadows=own_shadows and shadows)
+                wall, c = render(sc, on, gi=gi, proxies=prox, shadows=own_shadows and shadows,
+                                 unculled=k.endswith(UNCULLED))
                 res.setdefault(name, {}).setdefault(k, []).append(wall)
                 cpu.setdefault(name, {}).setdefault(k, []).append(round(c, 2))
         for k, v in res[name].items():

@@ -12,6 +12,8 @@
   transfer curve, as float in [0, 1]; ``srgb8`` rounds it to 8 bits. The one linear-to-display rule of
   ``cli.py predict --png``, the dataset preview, the demo and the report's figures.
 - ``write_png(path, img8)``: an 8-bit RGB(A) array as a PNG, written atomically.
+- ``normals_from_depth(depth, P)``: camera-space unit normals of the surfaces a depth image shows (the render
+  path's one render writes no Normal pass: ssgi_addon/blender/passes.NORMALS_FROM_DEPTH).
 """
 from __future__ import annotations
 
@@ -52,3 +54,58 @@ def write_png(path, img8: np.ndarray) -> None:
     from PIL import Image
 
     files.atomic_write(path, lambda tmp: Image.fromarray(img8).save(tmp, format="PNG"))
+
+
+def _one_sided(p: np.ndarray, z: np.ndarray, axis: int) -> np.ndarray:
+    """The difference of ``p`` to the next pixel along ``axis``, or to the previous one where that side's depth step is
+    smaller (so that a pixel beside a silhouette takes its own surface's slope, not the jump to the other surface);
+    the frame's last / first pixel takes its only side."""
+    fwd = np.diff(p, axis=axis)
+    dz = np.abs(np.diff(z, axis=axis))
+    n = p.shape[axis]
+    sl = lambda a, b: tuple(slice(a, b) if i == axis else slice(None) for i in range(p.ndim))  # noqa: E731
+    zsl = lambda a, b: tuple(slice(a, b) if i == axis else slice(None) for i in range(z.ndim))  # noqa: E731
+    out = np.empty_like(p)
+    # interior: forward difference fwd[i], backward fwd[i-1]
+    take_back = dz[zsl(0, n - 2)] < dz[zsl(1, n - 1)]
+    out[sl(1, n - 1)] = np.where(take_back[..., None], fwd[sl(0, n - 2)], fwd[sl(1, n - 1)])
+    out[sl(0, 1)] = fwd[sl(0, 1)]
+    out[sl(n - 1, n)] = fwd[sl(n - 2, n - 1)]
+    return out
+
+
+def normals_from_depth(depth: np.ndarray, P) -> np.ndarray:
+    """HxWx3 float32 camera-space unit normals (+X right, +Y up, +Z towards the camera, facing the camera) of the
+    surfaces a depth image shows: ``depth`` HxW or HxWx1 (distance along the view axis, top row first, as EEVEE's Z
+    pass), ``P`` the camera's 4x4 projection at that size (OpenGL convention, Blender's calc_matrix_camera;
+    perspective or orthographic). Each pixel's camera-space position is unprojected; the normal is the cross product
+    of its horizontal and vertical one-sided differences (``_one_sided``). Pixels with nothing hit
+    (``geometry_mask``) get a zero normal, as in EEVEE's Normal pass. These are the geometric normals: flat per
+    polygon where EEVEE's pass interpolates a smooth-shaded mesh's (session 30: on the artist test set at 960x540
+    the two differ by a median 0.02-1.8 degrees)."""
+    # (float32 throughout: neighbouring pixels' positions differ by millimetres to centimetres, float32 resolves
+    # micrometres at 10 m; 0.04 s at 960x540 on this machine against 0.1 in float64)
+    z = np.asarray(depth, np.float32)
+    z = z[..., 0] if z.ndim == 3 else z
+    P = np.asarray(P, np.float64)
+    H, W = z.shape
+    if H < 2 or W < 2:
+        raise ValueError(f"depth image of {W}x{H} pixels: normals need at least 2x2")
+    geo = geometry_mask(z)
+    zz = np.where(geo, z, np.float32(0.0))
+    nx = ((np.arange(W, dtype=np.float32) + 0.5) / W * 2.0 - 1.0)[None, :]
+    ny = (1.0 - (np.arange(H, dtype=np.float32) + 0.5) / H * 2.0)[:, None]
+    if P[3, 3] == 0.0:  # perspective
+        x = zz * ((nx + np.float32(P[0, 2])) / np.float32(P[0, 0]))
+        y = zz * ((ny + np.float32(P[1, 2])) / np.float32(P[1, 1]))
+    else:  # orthographic
+        x = np.broadcast_to((nx - np.float32(P[0, 3])) / np.float32(P[0, 0]), zz.shape)
+        y = np.broadcast_to((ny - np.float32(P[1, 3])) / np.float32(P[1, 1]), zz.shape)
+    p = np.stack([x, y, -zz], -1)
+    a, b = _one_sided(p, zz, 1), _one_sided(p, zz, 0)  # n = a x (-b)
+    n = np.stack([b[..., 1] * a[..., 2] - b[..., 2] * a[..., 1], b[..., 2] * a[..., 0] - b[..., 0] * a[..., 2],
+                  b[..., 0] * a[..., 1] - b[..., 1] * a[..., 0]], -1)
+    length = np.sqrt(np.einsum("...i,...i->...", n, n))
+    facing = (np.einsum("...i,...i->...", n, p) if P[3, 3] == 0.0 else -n[..., 2]) > 0
+    scale = np.where(geo & (length > 0), np.where(facing, -1.0, 1.0) / np.maximum(length, 1e-30), 0.0)
+    return (n * scale[..., None].astype(np.float32)).astype(np.float32)

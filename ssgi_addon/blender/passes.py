@@ -9,7 +9,9 @@ Contract (used by the baker and the compositor node):
   (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
   afterwards, and returns the groups top row first with normals in CAMERA space. Asked for ``rest`` at the
   same samples (the render path), it reads albedo, normal, depth and emission from that artist-settings render
-  (``SHARED_GROUPS``: bit-identical, docs/pass_cost.md); ``last_timings`` has each render's seconds.
+  (``SHARED_GROUPS``: bit-identical, docs/pass_cost.md); ``last_timings`` has each render's seconds. That
+  render writes no Emission pass where no used material can emit (``SKIP_EMPTY_EMISSION``: zeros, exact), and a
+  one-render model's frame writes no Normal pass: its normals come from the Z pass (``NORMALS_FROM_DEPTH``).
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
   or with hard lights and point-sampled pixels (to check EEVEE's 1-sample Diffuse Direct pass against Cycles').
 
@@ -375,12 +377,20 @@ def casts_no_shadow(scene) -> bool:
 SKIP_UNUSED_SHADOWS = True
 # whether the last _render turned the shadows off (casts_no_shadow); whether the last render_rest left the Emission
 # pass out (SKIP_EMPTY_EMISSION)
-last_render = {"shadows_skipped": False, "emission_skipped": False}
+last_render = {"shadows_skipped": False, "emission_skipped": False, "normals_from_depth": False}
 # Whether render_rest leaves the Emission pass out where no used material of the file can write it
 # (direct_light.materials_may_emit) and gives the emission group as zeros: yes. The pass is black to the bit there
 # (tests/blender/test_pass_merge.py), and on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of
 # 22.5 (session 30, benchmarks/pass_flags.py; docs/one_render.md).
 SKIP_EMPTY_EMISSION = True
+# Whether a one-render frame (render_gbuffer's normals=None for a one-render model's groups) takes its normals from
+# the Z pass (model/images.normals_from_depth: the geometric normals) instead of writing EEVEE's Normal pass: yes.
+# On Mesa the Normal pass cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5, as much as a fifth of what
+# EEVEE's own GI costs there (session 30, benchmarks/pass_flags.py); the two normals differ by a median 0.02-1.8
+# degrees on the artist test set, and the shipped one-render model scored 22.43 dB there against 22.31 with the pass
+# (docs/one_render.md). Bakes keep the pass (bake.py asks normals="pass"), and so do the frames of a model with a
+# shot's lightmap or reflection map, which read each pixel's own normal (pipeline/render.py).
+NORMALS_FROM_DEPTH = True
 
 
 @contextlib.contextmanager
@@ -562,7 +572,8 @@ def _tree_reads_pass(scene, name: str) -> bool:
 
 
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
-                proxy_shadows: bool = True, proxy_sides: str = "both", rest: bool = True):
+                proxy_shadows: bool = True, proxy_sides: str = "both", rest: bool = True,
+                normals_from_depth: bool = False):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -585,7 +596,10 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     for the sides of an emitter that face open space (``PROXY_SIDES_LOCAL``). ``rest`` False: the render writes only
     the passes of ``groups`` (no Diffuse Color or Diffuse Direct for a rest) and the first item is None; with
     ``groups`` holding ``eevee_combined`` (that render's Combined RGB) and not ``eevee_local``, the render of a
-    ref_combined model's frame, which needs no Diffuse Direct pass. The settings it changes are put back."""
+    ref_combined model's frame, which needs no Diffuse Direct pass. ``normals_from_depth`` with ``groups`` holding
+    ``normal`` and ``depth``: no Normal pass is written, the normals are the surfaces' geometric ones from the Z pass
+    (``NORMALS_FROM_DEPTH``). Where no used material can emit, no Emission pass is written and ``emission`` is zeros
+    (``SKIP_EMPTY_EMISSION``). The settings it changes are put back."""
     from . import direct_light
 
     _check_camera(scene)
@@ -607,11 +621,15 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         black = ("emission",) if ("emission" in groups and SKIP_EMPTY_EMISSION
                                   and not _tree_reads_pass(scene, PASS_NAMES["emission"])
                                   and not direct_light.materials_may_emit()) else ()
-        last_render["emission_skipped"] = bool(black)
-        for f in (REST_PASSES if rest else ()) + tuple(ch.GROUPS[g].blender_pass for g in groups if g not in black):
+        # the normals from the Z pass instead of a Normal pass (NORMALS_FROM_DEPTH)
+        derived = ("normal",) if (normals_from_depth and "normal" in groups and "depth" in groups
+                                  and not _tree_reads_pass(scene, PASS_NAMES["normal"])) else ()
+        last_render["emission_skipped"], last_render["normals_from_depth"] = bool(black), bool(derived)
+        for f in (REST_PASSES if rest else ()) + tuple(ch.GROUPS[g].blender_pass for g in groups
+                                                        if g not in black + derived):
             if f:  # (eevee_combined: the Combined pass, always written)
                 setattr(vl, f, True)
-        for g in black:
+        for g in black + derived:
             setattr(vl, ch.GROUPS[g].blender_pass, False)
         t0 = time.perf_counter()
         passes = _render(scene)
@@ -624,8 +642,19 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         return made, combined
     return made, combined, {g: np.ascontiguousarray(combined[..., :3]) if g == "eevee_combined" else
                             light if g in REST_LIGHT_GROUPS else
-                            np.zeros(combined.shape[:2] + (3,), np.float32) if g in black else _group(passes, g)
+                            np.zeros(combined.shape[:2] + (3,), np.float32) if g in black else
+                            _normals_from_depth(scene, _group(passes, "depth")) if g in derived else _group(passes, g)
                             for g in groups}
+
+
+def _normals_from_depth(scene, depth: np.ndarray) -> np.ndarray:
+    """World-space normals (as EEVEE's Normal pass gives them) of the surfaces the Z pass ``depth`` shows
+    (model/images.normals_from_depth, in camera space, turned by the camera's rotation)."""
+    from ...model.images import normals_from_depth
+    from .views import camera_matrices
+    h, w = depth.shape[:2]
+    n = normals_from_depth(depth, camera_matrices(scene, size=(w, h))["P"])
+    return np.einsum("hwj,ij->hwi", n.astype(np.float64), camera_rotation(scene)).astype(np.float32)
 
 
 # The world group is the sky's unoccluded light on each surface, smooth but for the geometry's edges: it is
@@ -646,7 +675,8 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
                    raster_samples: int | None = None, proxies: bool = REST_EMITTER_PROXIES,
-                   proxy_shadows: bool | None = None, proxy_sides: str | None = None) -> dict[str, np.ndarray]:
+                   proxy_shadows: bool | None = None, proxy_sides: str | None = None,
+                   normals: str | None = None) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -666,8 +696,10 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     (``render_rest``; not for ``eevee_diffuse``, an input the one-render models were trained on without);
     ``proxy_shadows``: whether they cast shadows (None: ``ONE_RENDER_MODES``' for a one-render model, else True;
     a model's own is ``recorded_proxy_shadows``); ``proxy_sides``: which sides of an emitter get one (None:
-    ``PROXY_SIDES_LOCAL`` for a GI-off one-render model, else "both"; a model's own is ``recorded_proxy_sides``). The
-    scene's render settings are put back."""
+    ``PROXY_SIDES_LOCAL`` for a GI-off one-render model, else "both"; a model's own is ``recorded_proxy_sides``).
+    ``normals``: "pass" (EEVEE's Normal pass) or "depth" (the geometric normals from the Z pass, where the normal and
+    the depth come from the artist-settings render: ``render_rest(normals_from_depth=True)``); None: "depth" for a
+    one-render model's groups when ``NORMALS_FROM_DEPTH``, else "pass". The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -680,7 +712,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     _check_camera(scene)
     last_timings.clear()
     last_sources.clear()
-    last_render["emission_skipped"] = False
+    last_render["emission_skipped"] = last_render["normals_from_depth"] = False
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
     ones = [g for g in groups if g in REST_LIGHT_GROUPS]
     if len({ONE_RENDER_MODES[g] for g in ones}) > 1:
@@ -691,6 +723,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     if proxy_shadows is not None:
         shadowed = bool(proxy_shadows)
     sides = proxy_sides or (PROXY_SIDES_LOCAL if ones and "eevee_diffuse" not in ones else "both")
+    normals = normals or ("depth" if ones and NORMALS_FROM_DEPTH else "pass")
+    if normals not in ("pass", "depth"):
+        raise ValueError(f"normals {normals!r}: 'pass' or 'depth'")
     if sides not in ("open", "both"):
         raise ValueError(f"proxy_sides {sides!r}: 'open' or 'both'")
     with_rest = "rest" in groups or one or any(g in REST_ONLY_GROUPS for g in groups)
@@ -727,7 +762,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     need_rest = not one or "rest" in groups or any(g in DIFFUSE_LIGHT_GROUPS for g in groups)
     if with_rest:
         made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed,
-                           proxy_sides=sides, rest=need_rest)
+                           proxy_sides=sides, rest=need_rest, normals_from_depth=normals == "depth")
         out["beauty"] = made[1]
         if made[0] is not None:
             out["rest"] = made[0]

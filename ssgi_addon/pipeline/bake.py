@@ -106,8 +106,10 @@ def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, re
     eevee_groups = BAKE_INPUT_GROUPS if eevee_groups is None else tuple(eevee_groups)
     if rest_samples and "rest" not in eevee_groups:
         eevee_groups += ("rest",)
+    # (a bake stores EEVEE's Normal pass: the render path's one-render frames take theirs from the depth,
+    # passes.NORMALS_FROM_DEPTH)
     groups = passes.render_gbuffer(scene, eevee_groups, samples=eevee_samples, keep_sky=keep_sky,
-                                   rest_samples=gi_samples or rest_samples or None)
+                                   rest_samples=gi_samples or rest_samples or None, normals="pass")
     groups.pop("beauty", None)
     t1 = time.perf_counter()
     refs, ref_info = render_references(scene, ref_samples, ref_target_db, seed=ref_seed, denoise=denoise,

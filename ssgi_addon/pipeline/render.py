@@ -222,8 +222,12 @@ class RenderSession:
         """The current frame's passes; called inside ``preserved``."""
         from ..blender import passes
 
+        # (a shot's lightmap and reflection map read each pixel's own normal, where the geometric normals of a
+        # smooth-shaded mesh would show its polygons: with either, the frame keeps EEVEE's Normal pass;
+        # passes.NORMALS_FROM_DEPTH)
+        normals = {"normals": "pass"} if self.lightmap is not None or self.reflmap is not None else {}
         groups = passes.render_gbuffer(self.scene, self.groups, samples=self.samples, rest_samples=self.samples,
-                                       **(self.proxy_options | self.pass_options))
+                                       **(self.proxy_options | normals | self.pass_options))
         missing = [g for g in self.groups if g not in groups]
         if missing:
             raise UserError(f"the pass render returned no {', '.join(missing)} for scene {self.scene.name!r}")
@@ -284,6 +288,8 @@ class RenderSession:
                 info["shadows_skipped"] = passes.last_render["shadows_skipped"]
                 # (its Emission pass left out: no material of the file can emit, passes.SKIP_EMPTY_EMISSION)
                 info["emission_skipped"] = passes.last_render["emission_skipped"]
+                # (its normals from the Z pass, no Normal pass written: passes.NORMALS_FROM_DEPTH)
+                info["normals_from_depth"] = passes.last_render["normals_from_depth"]
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()
                 t0 = time.perf_counter()
