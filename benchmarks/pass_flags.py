@@ -90,18 +90,15 @@ UNCULLED = "_unculled"  # suffix: the render with no lamp culled, as SSGI's rend
 @contextlib.contextmanager
 def _unculled(scene, on: bool):
     """With ``on``, EEVEE's light threshold 0 and every lamp a cutoff distance (passes.no_light_culled), as every SSGI
-    render has them; the file's settings back on exit."""
+    render has them; the file's settings back on exit (passes._settings_kept, which also keeps the EEVEE settings and
+    pass flags ``render`` has just set)."""
     from ssgi.ssgi_addon.blender import passes
-    lamps = {o.data: (o.data.use_custom_distance, o.data.cutoff_distance) for o in scene.objects if o.type == "LIGHT"}
-    saved = scene.eevee.light_threshold
-    try:
-        if on:
-            passes.no_light_culled(scene)
+    if not on:
         yield
-    finally:
-        scene.eevee.light_threshold = saved
-        for li, (use, dist) in lamps.items():
-            li.use_custom_distance, li.cutoff_distance = use, dist
+        return
+    with passes._settings_kept(scene):
+        passes.no_light_culled(scene)
+        yield
 
 
 def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None, shadows: bool = True,

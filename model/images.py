@@ -14,6 +14,8 @@
 - ``write_png(path, img8)``: an 8-bit RGB(A) array as a PNG, written atomically.
 - ``normals_from_depth(depth, P)``: camera-space unit normals of the surfaces a depth image shows (the render
   path's one render writes no Normal pass: ssgi_addon/blender/passes.NORMALS_FROM_DEPTH).
+- ``camera_points(z, nx, ny, P)``: the camera-space points that depths at normalised device coordinates show (the
+  one unprojection: normals_from_depth and model/infer/lightmap.world_points).
 """
 from __future__ import annotations
 
@@ -56,6 +58,21 @@ def write_png(path, img8: np.ndarray) -> None:
     files.atomic_write(path, lambda tmp: Image.fromarray(img8).save(tmp, format="PNG"))
 
 
+def camera_points(z: np.ndarray, nx: np.ndarray, ny: np.ndarray, P) -> np.ndarray:
+    """...x3 camera-space points (x, y, -z) seen at normalised device coordinates ``nx``, ``ny`` (arrays that broadcast
+    with ``z``) at depths ``z`` (distance along the view axis) through the camera's 4x4 projection ``P`` (OpenGL
+    convention, Blender's calc_matrix_camera; perspective, ndc = (P00 x + P02 z) / -z with z = -depth, or
+    orthographic, ndc = P00 x + P03). Computed in the arrays' own precision (give ``P`` as float32 for float32)."""
+    P = np.asarray(P)
+    if P[3, 3] == 0.0:  # perspective
+        x = z * (nx + P[0, 2]) / P[0, 0]
+        y = z * (ny + P[1, 2]) / P[1, 1]
+    else:  # orthographic
+        x = (nx - P[0, 3]) / P[0, 0]
+        y = (ny - P[1, 3]) / P[1, 1]
+    return np.stack(np.broadcast_arrays(x, y, -z), -1)
+
+
 def _one_sided(p: np.ndarray, z: np.ndarray, axis: int) -> np.ndarray:
     """The difference of ``p`` to the next pixel along ``axis``, or to the previous one where that side's depth step is
     smaller (so that a pixel beside a silhouette takes its own surface's slope, not the jump to the other surface);
@@ -63,11 +80,11 @@ def _one_sided(p: np.ndarray, z: np.ndarray, axis: int) -> np.ndarray:
     fwd = np.diff(p, axis=axis)
     dz = np.abs(np.diff(z, axis=axis))
     n = p.shape[axis]
-    sl = lambda a, b: tuple(slice(a, b) if i == axis else slice(None) for i in range(p.ndim))  # noqa: E731
-    zsl = lambda a, b: tuple(slice(a, b) if i == axis else slice(None) for i in range(z.ndim))  # noqa: E731
+    # (one slicer for both: ``p`` has one more, trailing, axis than ``z``, which a shorter index leaves whole)
+    sl = lambda a, b: tuple(slice(a, b) if i == axis else slice(None) for i in range(z.ndim))  # noqa: E731
     out = np.empty_like(p)
     # interior: forward difference fwd[i], backward fwd[i-1]
-    take_back = dz[zsl(0, n - 2)] < dz[zsl(1, n - 1)]
+    take_back = dz[sl(0, n - 2)] < dz[sl(1, n - 1)]
     out[sl(1, n - 1)] = np.where(take_back[..., None], fwd[sl(0, n - 2)], fwd[sl(1, n - 1)])
     out[sl(0, 1)] = fwd[sl(0, 1)]
     out[sl(n - 1, n)] = fwd[sl(n - 2, n - 1)]
@@ -87,7 +104,7 @@ def normals_from_depth(depth: np.ndarray, P) -> np.ndarray:
     # micrometres at 10 m; 0.05 s at 960x540 on this machine against 0.1 in float64)
     z = np.asarray(depth, np.float32)
     z = z[..., 0] if z.ndim == 3 else z
-    P = np.asarray(P, np.float64)
+    P = np.asarray(P, np.float32)
     H, W = z.shape
     if H < 2 or W < 2:
         raise ValueError(f"depth image of {W}x{H} pixels: normals need at least 2x2")
@@ -95,13 +112,7 @@ def normals_from_depth(depth: np.ndarray, P) -> np.ndarray:
     zz = np.where(geo, z, np.float32(0.0))
     nx = ((np.arange(W, dtype=np.float32) + 0.5) / W * 2.0 - 1.0)[None, :]
     ny = (1.0 - (np.arange(H, dtype=np.float32) + 0.5) / H * 2.0)[:, None]
-    if P[3, 3] == 0.0:  # perspective
-        x = zz * ((nx + np.float32(P[0, 2])) / np.float32(P[0, 0]))
-        y = zz * ((ny + np.float32(P[1, 2])) / np.float32(P[1, 1]))
-    else:  # orthographic
-        x = np.broadcast_to((nx - np.float32(P[0, 3])) / np.float32(P[0, 0]), zz.shape)
-        y = np.broadcast_to((ny - np.float32(P[1, 3])) / np.float32(P[1, 1]), zz.shape)
-    p = np.stack([x, y, -zz], -1)
+    p = camera_points(zz, nx, ny, P)
     a, b = _one_sided(p, zz, 1), _one_sided(p, zz, 0)  # n = a x (-b)
     n = np.stack([b[..., 1] * a[..., 2] - b[..., 2] * a[..., 1], b[..., 2] * a[..., 0] - b[..., 0] * a[..., 2],
                   b[..., 0] * a[..., 1] - b[..., 1] * a[..., 0]], -1)

@@ -42,6 +42,7 @@ import numpy as np
 
 from .. import channels as ch
 from ..errors import UserError
+from ..images import camera_points
 
 NFREQ = 6  # Fourier octaves of the position (pi * 2**i, i < NFREQ, over [-1, 1])
 ALBEDO_MIN = 0.02  # a pixel is blended only where every albedo channel exceeds this
@@ -103,13 +104,7 @@ def world_points(depth: np.ndarray, normal: np.ndarray, M, P, pixels=None) -> tu
         cols, rows, W, H = pixels
         nx = (np.asarray(cols, np.float64) + 0.5) / W * 2.0 - 1.0
         ny = 1.0 - (np.asarray(rows, np.float64) + 0.5) / H * 2.0
-    if P[3, 3] == 0.0:  # perspective: ndc = (P00 x + P02 z) / -z with z = -depth
-        x = z * (nx + P[0, 2]) / P[0, 0]
-        y = z * (ny + P[1, 2]) / P[1, 1]
-    else:  # orthographic: ndc = P00 x + P03
-        x = (nx - P[0, 3]) / P[0, 0]
-        y = (ny - P[1, 3]) / P[1, 1]
-    pc = np.stack([x, y, -z], -1)
+    pc = camera_points(z, nx, ny, P)
     pw = pc @ M[:3, :3].T + M[:3, 3]
     R = M[:3, :3] / np.linalg.norm(M[:3, :3], axis=0, keepdims=True)  # the camera's scale does not turn normals
     nw = np.asarray(normal, np.float64)[..., :3] @ R.T

@@ -146,14 +146,18 @@ def render_emitter_direct(scene, samples: int = EMITTER_SAMPLES, seed: int = 0, 
             bpy.data.node_groups.remove(tree)
 
 
-def _lit_input(sock, colour: bool = False) -> bool:
-    """Whether a shader socket may give off light: linked (could be anything), or a default above 0."""
+def _lit_input(sock) -> bool:
+    """Whether a shader socket may give off light: linked (could be anything), or a default above 0 (a colour's or
+    a vector's first three components; a socket without a value, such as a shader's: 0)."""
     if sock is None:
         return False
     if sock.is_linked:
         return True
-    v = sock.default_value
-    return max(v[:3]) > 0.0 if colour else float(v) > 0.0
+    v = getattr(sock, "default_value", 0.0)
+    try:
+        return max(float(c) for c in list(v)[:3]) > 0.0
+    except TypeError:
+        return float(v) > 0.0
 
 
 # the (strength, colour) inputs of the shader nodes that give off light
@@ -168,7 +172,7 @@ def _emission_sockets(node):
     if names is None:
         return None
     st, col = node.inputs.get(names[0]), node.inputs.get(names[1])
-    return (st, col) if _lit_input(st) and _lit_input(col, colour=True) else None
+    return (st, col) if _lit_input(st) and _lit_input(col) else None
 
 
 def has_emitters(scene) -> bool:
@@ -187,17 +191,6 @@ def has_emitters(scene) -> bool:
             if n.bl_idname == "ShaderNodeGroup":  # a group may hide an emitter: render it
                 return True
     return False
-
-
-def _socket_lit(sock) -> bool:
-    """``_lit_input`` for a socket of any kind: linked, or a default above 0 (a colour's RGB, a vector's any)."""
-    if sock.is_linked:
-        return True
-    v = getattr(sock, "default_value", 0.0)
-    try:
-        return max(float(c) for c in list(v)[:3]) > 0.0
-    except TypeError:
-        return float(v) > 0.0
 
 
 def _tree_may_emit(tree, seen: set) -> bool:
@@ -219,7 +212,7 @@ def _tree_may_emit(tree, seen: set) -> bool:
             if _tree_may_emit(n.node_tree, seen):
                 return True
             continue
-        if any(("emissi" in s.name.lower() or "blackbody" in s.name.lower()) and _socket_lit(s) for s in n.inputs):
+        if any(("emissi" in s.name.lower() or "blackbody" in s.name.lower()) and _lit_input(s) for s in n.inputs):
             return True
     return False
 
