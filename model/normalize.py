@@ -89,8 +89,17 @@ def repair(groups: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], int]:
     return out, int(bad.sum()) if bad is not None else 0
 
 
-def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
-    """HxWx1 float32 in [0, 1]: z/(z+median), background 1. Scale free and finite for any input."""
+def depth_median(depth: np.ndarray, normal: np.ndarray | None = None) -> float | None:
+    """The median depth of the pixels with geometry (float32 value), None where nothing was hit."""
+    z = np.asarray(depth, dtype=np.float32)
+    z = z[..., 0] if z.ndim == 3 else z
+    zg = z[images.geometry_mask(z, normal)]
+    return float(np.float32(np.median(zg))) if zg.size else None
+
+
+def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None, median: float | None = None) -> np.ndarray:
+    """HxWx1 float32 in [0, 1]: z/(z+median), background 1. Scale free and finite for any input. ``median``: the
+    whole image's (``image_stats``) for a crop of it; None: this image's own."""
     z = np.asarray(depth, dtype=np.float32)
     if z.ndim == 3:
         z = z[..., 0]
@@ -101,7 +110,7 @@ def depth_normalise(depth: np.ndarray, normal: np.ndarray | None = None) -> np.n
         # float64, then rounded once to float32: monotone in z (float32 division of z / (z + m) is not: measured
         # 16384 -> 0.9999999 < 10923 -> 0.99999994 with m = 0.001)
         z64 = zg.astype(np.float64)
-        m = np.float64(np.float32(np.median(zg)))
+        m = np.float64(np.float32(np.median(zg) if median is None else median))
         out[geo] = (z64 / (z64 + m)).astype(np.float32)
     return out[..., None]
 
@@ -142,21 +151,39 @@ def missing_groups(spec: tuple[str, ...], groups) -> list[str]:
     return [g for g in ch.required_groups(spec) if g not in groups]
 
 
-def to_inputs(groups: dict[str, np.ndarray], spec: tuple[str, ...]) -> tuple[np.ndarray, int]:
-    """The network input for ``spec`` as an HxWxC float32 array (C = channels.input_channels(spec)), finite
-    everywhere, and the number of repaired pixels. ``groups`` are raw HxWxC arrays as read from a sample."""
+def _repaired(groups: dict[str, np.ndarray], spec: tuple[str, ...]) -> tuple[dict[str, np.ndarray], int]:
     need = ch.required_groups(spec)
     extra = ("normal",) if "depth" in spec and "normal" in groups and "normal" not in need else ()
-    rep, n_bad = repair({g: groups[g] for g in need + extra})
+    return repair({g: groups[g] for g in need + extra})
+
+
+def image_stats(groups: dict[str, np.ndarray], spec: tuple[str, ...]) -> dict:
+    """The whole-image values ``to_inputs`` derives for ``spec`` (the STAT_GROUPS' vectors and the depth's
+    median): given back to ``to_inputs`` they make a crop's input equal the whole image's on that crop."""
+    rep, _ = _repaired(groups, spec)
+    out = {g: derived(g, rep)[0, 0].copy() for g in spec if g in ch.STAT_GROUPS}
+    if "depth" in spec:
+        out["depth_median"] = depth_median(rep["depth"], rep.get("normal"))
+    return out
+
+
+def to_inputs(groups: dict[str, np.ndarray], spec: tuple[str, ...], stats: dict | None = None) -> tuple[np.ndarray, int]:
+    """The network input for ``spec`` as an HxWxC float32 array (C = channels.input_channels(spec)), finite
+    everywhere, and the number of repaired pixels. ``groups`` are raw HxWxC arrays as read from a sample.
+    ``stats``: ``image_stats`` of the whole image when ``groups`` are a crop of it (None: this image's own)."""
+    rep, n_bad = _repaired(groups, spec)
     h, w = next(iter(rep.values())).shape[:2]
     x = np.empty((h, w, ch.input_channels(spec)), np.float32)
     for g, sl in layout(spec).items():
+        if stats is not None and g in ch.STAT_GROUPS:  # kind "stat": stored as derived() makes them
+            x[..., sl] = stats[g]
+            continue
         a = derived(g, rep) if g in ch.DERIVED else rep[g]
         kind = _kind(g)
         if kind == "light":
             np.log1p(a, out=x[..., sl])
         elif kind == "depth":
-            x[..., sl] = depth_normalise(a, rep.get("normal"))
+            x[..., sl] = depth_normalise(a, rep.get("normal"), None if stats is None else stats.get("depth_median"))
         else:
             x[..., sl] = a
     return x, n_bad

@@ -131,9 +131,10 @@ class ContractPredictor:
         if len(shapes) != 1:
             raise UserError(f"{self.path}: input groups have different sizes {sorted(shapes)}")
 
-    def predict(self, groups: dict[str, np.ndarray], tile: int | None = -1) -> np.ndarray:
+    def predict(self, groups: dict[str, np.ndarray], tile: int | None = -1, stats: dict | None = None) -> np.ndarray:
+        """``stats``: ``normalize.image_stats`` of the whole image when ``groups`` are a crop of it."""
         self.check_groups(groups)
-        x, self.last_repaired = normalize.to_inputs(groups, self.spec)
+        x, self.last_repaired = normalize.to_inputs(groups, self.spec, stats)
         x = x.transpose(2, 0, 1)[None]  # HxWxC memory: a channels-last view of 1xCxHxW
         out = run_tiled(self._forward, x, self.tile if tile == -1 else tile, self.multiple, self.overlap)
         lin = np.ascontiguousarray(out[0].transpose(1, 2, 0), dtype=np.float32)

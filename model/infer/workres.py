@@ -29,6 +29,10 @@ the output resolution as *diffuse light* guided by the full-resolution G-buffer:
 4. ... x the full-resolution albedo: the diffuse part at the output size, whose edges are the G-buffer's own
    (an anti-aliased edge pixel's albedo is coverage x colour, so a half-covered sky-edge pixel gets half the
    surface's diffuse light, never a dark rim). compose.py then adds EEVEE's ``rest`` as at full resolution.
+5. Near emitters (fine.py): the blocks holding an emitter pixel and two blocks around them
+   take the network's prediction at the output resolution, run on crops of the full-resolution groups with the
+   working resolution's whole-image statistics (``normalize.image_stats``), fading into the upsampled one over a
+   third block; skipped where the crops would cover more than ``fine.FINE_MAX_FRACTION`` of the image.
 Over 400 lines by a few: reduce, upsample and the wrapper are one algorithm with one set of conventions.
 Vectorised numpy: the f x f sub-block positions are independent slices, run on ``default_threads()``
 threads (numpy releases the GIL). Measured in docs/working_res.md.
@@ -370,11 +374,13 @@ class WorkingResolution:
     "guided" or "bilinear"; ``residual``: keep the full-resolution direct light (upsample_part; off by default:
     +0.04-0.05 dB but the 4-sample soft direct pass's grain and the hard pass's steps come back, and SSIM drops,
     docs/working_res.md); ``threads``: the
-    upsample's (upsample_light). Everything else (``spec``, ``required``, ``last_repaired``, ...) is the inner
+    upsample's (upsample_light); ``fine``: the full-resolution prediction near emitters (step 5; a model's
+    predictor only, where the groups hold ``emission``). After ``predict``: ``last_factor``, ``last_seconds``
+    (reduce, network, upsample, fine) and ``last_fine_pixels`` (the pixels the network ran on at full resolution). Everything else (``spec``, ``required``, ``last_repaired``, ...) is the inner
     predictor's. A whole-image (``ref``) model's prediction is upsampled as is (confidence: geometry)."""
 
     def __init__(self, predictor, setting="auto", method: str = "guided", residual: bool = False,
-                 threads: int | None = None):
+                 threads: int | None = None, fine: bool = True):
         if method not in ("guided", "bilinear"):
             raise UserError(f"upsample method {method!r}: expected 'guided' or 'bilinear'")
         self.inner = predictor
@@ -382,6 +388,8 @@ class WorkingResolution:
         self.method = method
         self.residual = residual
         self.threads = threads
+        self.fine = fine
+        self.last_fine_pixels = 0
         self.last_factor = 1
         self.last_seconds: dict = {}
 
@@ -412,6 +420,10 @@ class WorkingResolution:
         t1 = time.perf_counter()
         part = self.inner.predict(lo, tile=tile)
         t2 = time.perf_counter()
+        fine = None  # a model's predictor (contract.ContractPredictor: crops with the whole image's statistics)
+        if self.fine and "emission" in groups and hasattr(self.inner, "overlap"):
+            from .fine import fine_plan
+            fine = fine_plan(groups["emission"], f, self.inner.overlap, getattr(self.inner, "multiple", 1))
         target = getattr(self.inner, "target", ch.DIFFUSE_TARGET)
         signed = ch.signed_part(target)
         if ch.adds_part(target):
@@ -422,5 +434,13 @@ class WorkingResolution:
             conf = geometry_mask(lo["depth"], lo["normal"]).astype(np.float32)[..., None]
             out = upsample_light(part, lo, groups, weight_lo=conf, method=self.method, factor=f,
                                  threads=self.threads)
-        self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=time.perf_counter() - t2)
+        t3 = time.perf_counter()
+        self.last_fine_pixels = 0
+        if fine is not None:
+            from .. import normalize
+            from .fine import fine_blend
+            stats = normalize.image_stats(lo, tuple(self.inner.spec))  # the statistics the low-res network saw
+            self.last_fine_pixels = fine_blend(out, {k: v for k, v in groups.items() if k in need},
+                                               lambda g: self.inner.predict(g, tile=tile, stats=stats), *fine, f)
+        self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=t3 - t2, fine=time.perf_counter() - t3)
         return out if signed else np.maximum(out, 0.0)

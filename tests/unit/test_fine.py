@@ -1,0 +1,128 @@
+"""Near emitters the working resolution runs the network at the output resolution (issue 15, model/infer/fine.py):
+the boxes, the plan, crops that see the whole image's statistics, and the blend."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ssgi.model import channels as ch
+from ssgi.model import normalize
+from ssgi.model.infer import fine
+from ssgi.model.infer import workres as wr
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_boxes_cut_separate_objects_apart_and_keep_one_object_whole():
+    m = np.zeros((12, 20), bool)
+    assert fine.boxes(m) == []
+    m[1:3, 2:5] = True  # an object ...
+    m[8:11, 14:18] = True  # ... another, apart in rows and columns
+    m[2:6, 4] = True  # an L joined to the first
+    assert fine.boxes(m) == [(1, 6, 2, 5), (8, 11, 14, 18)]
+    m2 = np.zeros((6, 6), bool)
+    m2[0, 0] = m2[5, 5] = m2[0, 5] = True  # three corners: row cut, then a column cut of the top row
+    assert fine.boxes(m2) == [(0, 1, 0, 1), (0, 1, 5, 6), (5, 6, 5, 6)]
+
+
+@pytest.fixture
+def no_cap(monkeypatch):  # these images are small: their crops cover more than the 5 % a frame may spend
+    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 1.0)
+
+
+def test_the_plan_weights_the_emitter_blocks_and_a_ring_round_them_and_fades_over_one_more(monkeypatch):
+    H, W, f = 64, 96, 4
+    em = np.zeros((H, W, 3), np.float32)
+    em[30:33, 45:47] = 5.0  # one emitter in blocks (7..8, 11)
+    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 1.0)
+    wgt, plan = fine.fine_plan(em, f, overlap=8, multiple=4)
+    assert wgt.shape == (16, 24)
+    ring = np.zeros_like(wgt, bool)
+    ring[7 - 2:8 + 3, 11 - 2:11 + 3] = True
+    assert (wgt[ring] == 1).all()
+    fade = np.zeros_like(wgt, bool)
+    fade[4:12, 8:15] = True
+    fade &= ~ring
+    np.testing.assert_allclose(wgt[fade], 0.5)
+    assert (wgt[~(ring | fade)] == 0).all()
+    (wy, wx, cy, cx), = plan
+    assert (cy.start, cy.stop, cx.start, cx.stop) == (16, 48, 32, 60)  # the weighted blocks, in pixels
+    assert (wy.start, wy.stop, wx.start, wx.stop) == (8, 56, 24, 68)  # + 8 px of context each side
+    assert fine.fine_plan(np.zeros((H, W, 3), np.float32), f, 8) is None  # no emitter: nothing to run
+    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 0.34)  # the window is 48 x 44 of 96 x 64: 34 %
+    assert fine.fine_plan(em, f, 8) is None
+    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 0.35)
+    assert fine.fine_plan(em, f, 8) is not None
+
+
+def _one_render_groups(W=192, H=112, seed=3):
+    from ssgi.model.dataset import synthetic
+    g = synthetic.with_emission(synthetic.sample(W, H, seed=seed, scene_seed=4), 3)
+    em = np.zeros((H, W, 3), np.float32)
+    em[40:52, 90:130] = 12.0  # a bright panel
+    g["albedo"][40:52, 90:130] = 0.05
+    g["emission"] = em
+    g["eevee_combined"] = (g["albedo"] * g["direct"] + em).astype(np.float32)
+    g["surround"] = np.zeros((H, W, 12), np.float32)
+    g["sky"] = np.zeros((H, W, 3), np.float32)
+    return g
+
+
+def test_a_crop_given_the_whole_images_statistics_gets_the_whole_images_input_there():
+    g = _one_render_groups()
+    spec = ("albedo", "normal", "depth", "emission", "eevee_combined", "scene_comb", "glow", "surround", "sky")
+    whole, _ = normalize.to_inputs(g, spec)
+    crop = {k: v[10:70, 20:150] for k, v in g.items()}
+    own, _ = normalize.to_inputs(crop, spec)
+    given, _ = normalize.to_inputs(crop, spec, normalize.image_stats(g, spec))
+    np.testing.assert_array_equal(given, whole[10:70, 20:150])
+    assert not np.array_equal(own, whole[10:70, 20:150])  # its own statistics differ: the stats matter
+    assert ch.input_channels(spec) == whole.shape[-1]
+
+
+def test_near_an_emitter_the_working_resolution_gives_the_full_resolution_prediction_and_elsewhere_the_upsampled(no_cap):
+    from ssgi.model.infer.predictor import load_predictor
+    pred = load_predictor(ROOT / "models" / "ssgi_one_render.pt", num_threads=1)
+    g = _one_render_groups()
+    out = wr.WorkingResolution(pred, "4x").predict(g)
+    plain = wr.WorkingResolution(pred, "4x", fine=False).predict(g)
+    lo = wr.reduce_groups(g, 4)
+    full = pred.predict(g, stats=normalize.image_stats(lo, tuple(pred.spec)))  # the whole image, not crops
+    wgt, plan = fine.fine_plan(g["emission"], 4, pred.overlap, pred.multiple)
+    w_px = np.repeat(np.repeat(wgt, 4, 0), 4, 1)[:112, :192]
+    ring, outside = w_px >= 1, w_px <= 0
+    assert ring.sum() > 1000 and outside.sum() > 10000
+    # in the ring: the whole image's full-resolution prediction (so each crop's context is enough)
+    np.testing.assert_allclose(out[ring], full[ring], rtol=1e-4, atol=1e-5)
+    # outside the boxes: the upsampled prediction, untouched
+    np.testing.assert_array_equal(out[outside], plain[outside])
+    # the two differ where it matters: beside the panel
+    assert np.abs(full - plain)[ring & (g["emission"].max(-1) == 0)].max() > 0.01
+    # the fade: between the two, per pixel
+    mid = ~ring & ~outside
+    lo_b, hi_b = np.minimum(full, plain), np.maximum(full, plain)
+    assert mid.any() and ((out[mid] >= lo_b[mid] - 1e-5) & (out[mid] <= hi_b[mid] + 1e-5)).all()
+    assert wr.WorkingResolution(pred, "4x").predict({**g, "emission": np.zeros_like(g["emission"])}) is not None
+
+
+def test_the_fine_pass_stays_exact_under_tiling(no_cap):
+    from ssgi.model.infer.predictor import load_predictor
+    pred = load_predictor(ROOT / "models" / "ssgi_one_render.pt", num_threads=1)
+    g = _one_render_groups(W=256, H=144)
+    w = wr.WorkingResolution(pred, "2x")
+    whole = w.predict(g, tile=None)
+    assert w.last_fine_pixels > 0
+    np.testing.assert_allclose(w.predict(g, tile=32), whole, rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("size", [(100, 61), (97, 64)])
+def test_the_plan_covers_partial_border_blocks(size, no_cap):
+    W, H = size
+    em = np.zeros((H, W), np.float32)
+    em[H - 1, W - 1] = 3.0  # the bottom-right pixel, in a partial block
+    wgt, plan = fine.fine_plan(em, 4, overlap=8)
+    (wy, wx, cy, cx), = plan
+    assert cy.stop == H and cx.stop == W and wy.stop == H and wx.stop == W
+    assert wgt[-1, -1] == 1
