@@ -3,10 +3,12 @@
 Why: beside an emitter tens of times brighter than its surround, the network run at 1/4 of 960x540 predicts about
 twice the light the surround needs in the two blocks next to the emitter (the Cornell box's ceiling round its
 panel: +0.10-0.16 on a needed 0.12-0.17, measured in docs/working_res.md), and no upsample can take that back;
-the same network at full resolution does not. So the blocks that hold an emitter pixel and ``FINE_RING`` blocks
-around them take the full-resolution prediction, run on crops of the full-resolution groups (each crop its box
-plus the network's tile overlap of context) with the working resolution's whole-image statistics, fading into the
-upsampled prediction over ``FINE_FADE`` more blocks. Used by ``workres.WorkingResolution`` (step 5).
+the same network at full resolution does not. So the pixels within ``FINE_RING`` blocks of an emitter pixel take
+the full-resolution prediction, run on crops of the full-resolution groups (each crop its box plus the network's
+tile overlap of context) with the working resolution's whole-image statistics, fading into the upsampled
+prediction over ``FINE_FADE`` more blocks with the distance to the emitter (a seam along the blocks shows as steps
+where the two predictions differ: the living room's lamp, docs/working_res.md). Used by
+``workres.WorkingResolution`` (step 5).
 """
 from __future__ import annotations
 
@@ -16,8 +18,8 @@ from .workres import _blocks, _pad_mult, upsample_light
 
 # near emitters the network runs at the output resolution (``fine_plan``, docs/working_res.md)
 FINE_EMISSION = 0.01  # a pixel whose emission (max channel) is above this is an emitter (normalize's "glow" rule)
-FINE_RING = 2  # working-resolution blocks around an emitter's blocks that take the full-resolution prediction
-FINE_FADE = 1  # blocks beyond the ring over which it fades into the upsampled prediction
+FINE_RING = 2  # within this many working-resolution blocks of an emitter pixel: the full-resolution prediction
+FINE_FADE = 2  # blocks beyond the ring over which it fades (a smooth step) into the upsampled prediction
 FINE_MAX_FRACTION = 0.05  # the fine windows may cover at most this share of the output pixels, else none is run
 
 
@@ -60,56 +62,69 @@ def _chebyshev_grow(m: np.ndarray) -> np.ndarray:
     return h
 
 
-def fine_plan(emission: np.ndarray, f: int, overlap: int, multiple: int = 1) -> tuple[np.ndarray, list] | None:
-    """Where the network runs at the output resolution: the blocks (working-resolution pixels) that hold an
-    emitter pixel (``FINE_EMISSION``) and the ``FINE_RING`` blocks around them (weight 1), fading to 0 over
-    ``FINE_FADE`` more blocks (module doc: why).
+def chebyshev_distance(hot: np.ndarray, cap: int) -> np.ndarray:
+    """Per pixel, the Chebyshev distance (pixels) to the nearest True pixel of ``hot``, at most ``cap``."""
+    d = np.full(hot.shape, cap, np.float32)
+    m = hot.copy()
+    d[m] = 0
+    for k in range(1, cap):
+        g = _chebyshev_grow(m)
+        d[g & ~m] = k
+        m = g
+    return d
 
-    Returns (h x w float32 block weights, [(window rows, window cols, core rows, core cols)] at the output
-    resolution: each core a box of weighted blocks, each window its core plus ``overlap`` pixels of context on
-    every side, clipped to the image, starting on a multiple of ``multiple``), or None where there is no emitter
-    or the windows would cover more than ``FINE_MAX_FRACTION`` of the image."""
+
+def fine_weight(hot: np.ndarray, f: int) -> np.ndarray:
+    """Per pixel, the share of the full-resolution prediction: 1 within ``FINE_RING`` blocks (``f`` pixels each) of
+    an emitter pixel of ``hot``, falling to 0 over ``FINE_FADE`` more blocks (a smooth step of the distance, so the
+    seam follows the emitter's outline, not the blocks')."""
+    ring, fade = FINE_RING * f, FINE_FADE * f
+    t = np.clip((ring + fade - chebyshev_distance(hot, ring + fade)) / np.float32(fade), 0, 1)
+    return (t * t * (3 - 2 * t)).astype(np.float32)
+
+
+def fine_plan(emission: np.ndarray, f: int, overlap: int, multiple: int = 1) -> tuple[np.ndarray, list] | None:
+    """Where the network runs at the output resolution: every pixel within ``FINE_RING`` + ``FINE_FADE`` blocks of
+    an emitter pixel (``FINE_EMISSION``; module doc: why).
+
+    Returns (H x W bool: the emitter pixels, [(window rows, window cols, core rows, core cols)]: each core a box
+    of blocks holding such pixels (an XY cut of the blocks near emitters, so apart emitters get their own crops),
+    each window its core plus ``overlap`` pixels of context on every side (at least the reach, so that the window
+    holds every emitter pixel near its core), clipped to the image, starting on a multiple of ``multiple``), or
+    None where there is no emitter or the windows would cover more than ``FINE_MAX_FRACTION`` of the image."""
     e = np.asarray(emission, np.float32)
     e = e.max(-1) if e.ndim == 3 else e
     H, W = e.shape
-    hot = _blocks(_pad_mult(e > FINE_EMISSION, f), f).any(-1)
+    hot = e > FINE_EMISSION
     if not hot.any():
         return None
-    wgt, m = np.zeros(hot.shape, np.float32), hot
-    for _ in range(FINE_RING):
-        m = _chebyshev_grow(m)
-    wgt[m] = 1.0
-    for k in range(1, FINE_FADE + 1):
-        g = _chebyshev_grow(m)
-        wgt[g & ~m] = 1.0 - k / (FINE_FADE + 1)
-        m = g
+    reach = FINE_RING + FINE_FADE
+    near = _blocks(_pad_mult(hot, f), f).any(-1)
+    for _ in range(reach):
+        near = _chebyshev_grow(near)
+    ctx = max(overlap, reach * f)
     plan, px = [], 0
-    for y0, y1, x0, x1 in boxes(wgt > 0):
+    for y0, y1, x0, x1 in boxes(near):
         cy, cx = slice(y0 * f, min(H, y1 * f)), slice(x0 * f, min(W, x1 * f))
-        wy0, wx0 = (max(0, c.start - overlap) // multiple * multiple for c in (cy, cx))
-        wy, wx = slice(wy0, min(H, cy.stop + overlap)), slice(wx0, min(W, cx.stop + overlap))
+        wy0, wx0 = (max(0, c.start - ctx) // multiple * multiple for c in (cy, cx))
+        wy, wx = slice(wy0, min(H, cy.stop + ctx)), slice(wx0, min(W, cx.stop + ctx))
         plan.append((wy, wx, cy, cx))
         px += (wy.stop - wy.start) * (wx.stop - wx.start)
     if px > FINE_MAX_FRACTION * H * W:
         return None
-    return wgt, plan
+    return hot, plan
 
 
-def fine_blend(out: np.ndarray, groups: dict, predict, wgt: np.ndarray, plan: list, f: int) -> int:
-    """``out`` (H x W x 3, the upsampled prediction) with the full-resolution prediction blended in where ``wgt``
-    (fine_plan) says, in place: ``predict(window groups)`` -> the window's prediction. Returns the pixels run."""
-    H, W = out.shape[:2]
-    guide = {"depth": np.zeros((H, W), np.float32)}  # upsample_light reads the output size from it
-    w_hi = upsample_light(wgt, {}, guide, method="bilinear", factor=f)[..., 0]
-    up = lambda m: np.repeat(np.repeat(m, f, 0), f, 1)[:H, :W]  # noqa: E731  (blocks -> their pixels)
-    w_hi[up(wgt >= 1.0)] = 1.0  # the ring's own pixels: all fine; the fade's: bilinear; outside the boxes: none
-    w_hi[up(wgt <= 0.0)] = 0.0
+def fine_blend(out: np.ndarray, groups: dict, predict, hot: np.ndarray, plan: list, f: int) -> int:
+    """``out`` (H x W x 3, the upsampled prediction) with the full-resolution prediction blended in by
+    ``fine_weight``, in place, over each core of ``plan`` (fine_plan): ``predict(window groups)`` -> the window's
+    prediction. Returns the pixels the network ran on."""
     run = 0
     for wy, wx, cy, cx in plan:
         p = predict({k: v[wy, wx] for k, v in groups.items()})
         run += p.shape[0] * p.shape[1]
-        core = p[cy.start - wy.start:cy.stop - wy.start, cx.start - wx.start:cx.stop - wx.start, :3]
-        w = w_hi[cy, cx, None]
+        core = (slice(cy.start - wy.start, cy.stop - wy.start), slice(cx.start - wx.start, cx.stop - wx.start))
+        w = fine_weight(hot[wy, wx], f)[core][..., None]
         o = out[cy, cx, :3]
-        o += w * (core - o)
+        o += w * (p[core][..., :3] - o)
     return run

@@ -32,29 +32,36 @@ def no_cap(monkeypatch):  # these images are small: their crops cover more than 
     monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 1.0)
 
 
-def test_the_plan_weights_the_emitter_blocks_and_a_ring_round_them_and_fades_over_one_more(monkeypatch):
-    H, W, f = 64, 96, 4
-    em = np.zeros((H, W, 3), np.float32)
-    em[30:33, 45:47] = 5.0  # one emitter in blocks (7..8, 11)
+def test_the_plan_crops_the_blocks_near_each_emitter_with_context_and_refuses_too_many(monkeypatch):
     monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 1.0)
-    wgt, plan = fine.fine_plan(em, f, overlap=8, multiple=4)
-    assert wgt.shape == (16, 24)
-    ring = np.zeros_like(wgt, bool)
-    ring[7 - 2:8 + 3, 11 - 2:11 + 3] = True
-    assert (wgt[ring] == 1).all()
-    fade = np.zeros_like(wgt, bool)
-    fade[4:12, 8:15] = True
-    fade &= ~ring
-    np.testing.assert_allclose(wgt[fade], 0.5)
-    assert (wgt[~(ring | fade)] == 0).all()
-    (wy, wx, cy, cx), = plan
-    assert (cy.start, cy.stop, cx.start, cx.stop) == (16, 48, 32, 60)  # the weighted blocks, in pixels
-    assert (wy.start, wy.stop, wx.start, wx.stop) == (8, 56, 24, 68)  # + 8 px of context each side
+    H, W, f = 96, 192, 4
+    em = np.zeros((H, W, 3), np.float32)
+    em[40:43, 45:47] = 5.0  # an emitter in blocks (10, 11)
+    em[40:42, 170:172] = 2.0  # another, apart, in block (10, 42)
+    hot, plan = fine.fine_plan(em, f, overlap=8, multiple=4)
+    assert hot.sum() == 10
+    reach = fine.FINE_RING + fine.FINE_FADE  # 4 blocks
+    (wy, wx, cy, cx), (wy2, wx2, cy2, cx2) = plan
+    assert (cy.start, cy.stop, cx.start, cx.stop) == ((10 - reach) * f, (11 + reach) * f, (11 - reach) * f, (12 + reach) * f)
+    ctx = max(8, reach * f)  # at least the reach: every emitter pixel near the core is in the window
+    assert (wy.start, wy.stop, wx.start, wx.stop) == (cy.start - ctx, cy.stop + ctx, cx.start - ctx, cx.stop + ctx)
+    assert (cy2.start, cy2.stop, cx2.start, cx2.stop) == (24, 60, 152, 188) and (wx2.stop, wy2.start) == (192, 8)  # clipped
     assert fine.fine_plan(np.zeros((H, W, 3), np.float32), f, 8) is None  # no emitter: nothing to run
-    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 0.34)  # the window is 48 x 44 of 96 x 64: 34 %
+    px = sum((a.stop - a.start) * (b.stop - b.start) for a, b, _, _ in plan)
+    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", px / (H * W) - 1e-3)  # the crops would pass the share allowed
     assert fine.fine_plan(em, f, 8) is None
-    monkeypatch.setattr(fine, "FINE_MAX_FRACTION", 0.35)
-    assert fine.fine_plan(em, f, 8) is not None
+
+
+def test_the_weight_is_one_near_the_emitter_and_falls_smoothly_with_the_distance_to_its_outline():
+    hot = np.zeros((40, 60), bool)
+    hot[18:21, 10:40] = True
+    w = fine.fine_weight(hot, 4)  # ring 8 px, fade over 8 more
+    assert (w[hot] == 1).all() and w[18 - 8, 25] == 1 and w[20 + 8, 39 + 8] == 1  # Chebyshev: corners too
+    assert w[18 - 16, 25] == 0 and w[20, 39 + 16] == 0
+    col = w[:18, 25][::-1]  # moving away from the emitter upwards
+    assert (np.diff(col) <= 0).all() and 0 < col[12] < 1
+    assert w[18 - 12, 25] == pytest.approx(0.5)  # half way through the fade
+    np.testing.assert_array_equal(w[:, 25], w[:, 20])  # along the emitter's side: the same (its outline, not blocks)
 
 
 def _one_render_groups(W=192, H=112, seed=3):
@@ -90,8 +97,8 @@ def test_near_an_emitter_the_working_resolution_gives_the_full_resolution_predic
     plain = wr.WorkingResolution(pred, "4x", fine=False).predict(g)
     lo = wr.reduce_groups(g, 4)
     full = pred.predict(g, stats=normalize.image_stats(lo, tuple(pred.spec)))  # the whole image, not crops
-    wgt, plan = fine.fine_plan(g["emission"], 4, pred.overlap, pred.multiple)
-    w_px = np.repeat(np.repeat(wgt, 4, 0), 4, 1)[:112, :192]
+    hot, plan = fine.fine_plan(g["emission"], 4, pred.overlap, pred.multiple)
+    w_px = fine.fine_weight(hot, 4)
     ring, outside = w_px >= 1, w_px <= 0
     assert ring.sum() > 1000 and outside.sum() > 10000
     # in the ring: the whole image's full-resolution prediction (so each crop's context is enough)
@@ -122,7 +129,7 @@ def test_the_plan_covers_partial_border_blocks(size, no_cap):
     W, H = size
     em = np.zeros((H, W), np.float32)
     em[H - 1, W - 1] = 3.0  # the bottom-right pixel, in a partial block
-    wgt, plan = fine.fine_plan(em, 4, overlap=8)
+    hot, plan = fine.fine_plan(em, 4, overlap=8)
     (wy, wx, cy, cx), = plan
     assert cy.stop == H and cx.stop == W and wy.stop == H and wx.stop == W
-    assert wgt[-1, -1] == 1
+    assert fine.fine_weight(hot, 4)[H - 1, W - 1] == 1

@@ -1,0 +1,133 @@
+"""Benchmark (issue 15): the working resolution beside emitters. For each .blend scene and model, renders the
+frame's passes as the render path does (``RenderSession``, the node's groups, once), then predicts and composes it
+at full resolution, at 1/4 with and without the full-resolution prediction near emitters (model/infer/fine.py) and
+at 1/2, and scores each against the scene's Cycles reference: over the geometry pixels (the report's PSNR) and per
+band of distance (Chebyshev, output pixels) from the nearest emitter pixel, with the mean signed error of each band
+and the prediction seconds (reduce + network + upsample + fine), all in the same run.
+
+    .venv/bin/python benchmarks/emitter_rim.py --scenes S/cornell_emissive.blend S/living_room.blend \\
+        --refs REPORT/data [--models models/ssgi_one_render.pt models/ssgi_default.pt] [--size 960x540] \\
+        [--samples 16] [--json out.json]
+
+``--refs``: a folder baked by ``cli.py bake --scenes`` (or a report's OUT/data) at the same size: each scene's
+reference is the sample whose ``ssgi_scene`` header names it (the whole image ``ref``; a ref_diffuse model's image
+is composed with EEVEE's rest as the node shows it). ``S`` is benchmarks/artist_scenes.py's ``--out``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import _bootstrap  # noqa: F401  (the checkout as package ssgi)
+import bpy
+import numpy as np
+
+from ssgi.model import images, metrics
+from ssgi.model.cliargs import parse_size
+from ssgi.model.errors import UserError
+from ssgi.model.infer import fine as fine_mod
+from ssgi.model.infer.compose import compose
+from ssgi.model.infer.workres import WorkingResolution
+
+CONFIGS = (("full", "full", True), ("1/4", "4x", True), ("1/4 no fine", "4x", False), ("1/2", "2x", True))
+BANDS = ((0, 0), (1, 4), (5, 8), (9, 16), (17, 32), (33, None))  # Chebyshev distance from an emitter pixel
+
+
+def chebyshev_distance(hot: np.ndarray, cap: int = 33) -> np.ndarray:
+    """Per pixel, the Chebyshev distance to the nearest True pixel of ``hot``, capped at ``cap``."""
+    d = np.full(hot.shape, cap, np.int32)
+    m = hot.copy()
+    d[m] = 0
+    for k in range(1, cap):
+        m = fine_mod._chebyshev_grow(m)
+        d[m & (d == cap)] = k
+    return d
+
+
+def references(folder: Path) -> dict[str, Path]:
+    import OpenEXR
+    out = {}
+    for p in sorted(folder.glob("*.exr")):
+        name = OpenEXR.File(str(p)).header().get("ssgi_scene")
+        if name:
+            out[str(name)] = p
+    return out
+
+
+def frame_groups(blend: Path, model: str, size, samples: int) -> tuple[dict, str]:
+    """The node's groups of the file's scene at ``size`` and ``samples`` (RenderSession._passes), and the target."""
+    from ssgi.ssgi_addon.blender import passes
+    from ssgi.ssgi_addon.blender.compositor import setup_scene
+    from ssgi.ssgi_addon.blender.scene_state import preserved
+    from ssgi.ssgi_addon.pipeline.render import RenderSession
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    sc = bpy.context.scene
+    passes.set_resolution(sc, *size)
+    sc.eevee.taa_render_samples = samples
+    setup_scene(sc, model)
+    s = RenderSession(sc, model=model, write=False, keep_groups=True, working_res="full")
+    with preserved(sc):
+        return s._passes(), s
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", nargs="+", required=True, type=Path)
+    ap.add_argument("--refs", required=True, type=Path)
+    ap.add_argument("--models", nargs="+", default=["models/ssgi_one_render.pt"])
+    ap.add_argument("--size", type=parse_size, default=(960, 540))
+    ap.add_argument("--samples", type=int, default=16)
+    ap.add_argument("--json", type=Path)
+    a = ap.parse_args(argv)
+    refs = references(a.refs)
+    rows = []
+    for blend in a.scenes:
+        if blend.stem not in refs:
+            raise UserError(f"--refs {a.refs}: no sample of scene {blend.stem!r} (it has {', '.join(refs) or 'none'})")
+        from ssgi.model.dataset import exrio
+        ref = exrio.read_sample(refs[blend.stem], strict=False)["ref"][..., :3]
+        for model in a.models:
+            g, session = frame_groups(blend, model, a.size, a.samples)
+            if ref.shape[:2] != g["depth"].shape[:2]:
+                raise UserError(f"{refs[blend.stem]}: the reference is {ref.shape[1]}x{ref.shape[0]}, not {a.size[0]}x{a.size[1]}")
+            inner = session.predictor.inner
+            mask = images.geometry_mask(g["depth"], g["normal"])
+            em = np.asarray(g.get("emission", np.zeros_like(ref)))
+            dist = chebyshev_distance(em.max(-1) > fine_mod.FINE_EMISSION)
+            clamp = lambda x: np.clip(x, 0, 1)  # noqa: E731  (the report's PSNR: values clamped to [0, 1])
+            for label, setting, use_fine in CONFIGS:
+                w = WorkingResolution(inner, setting, fine=use_fine)
+                w.predict(g)  # warm
+                t = time.perf_counter()
+                pred = w.predict(g)
+                secs = time.perf_counter() - t
+                img = compose(pred, g, inner.target)
+                row = dict(scene=blend.stem, model=Path(model).name, config=label, seconds=secs,
+                           fine_pixels=int(getattr(w, "last_fine_pixels", 0)),
+                           psnr=metrics.score(img, ref, mask, with_ssim=False, with_flip=False)["psnr"], bands=[])
+                for lo, hi in BANDS:
+                    b = mask & (dist >= lo) & (dist <= (hi if hi is not None else 1 << 30))
+                    if b.any():
+                        row["bands"].append(dict(band=f"{lo}-{hi if hi is not None else ''}", pixels=int(b.sum()),
+                                                 sse=float(((clamp(img) - clamp(ref)) ** 2)[b].sum()),
+                                                 mean_error=float((img - ref)[b].mean()), mean_ref=float(ref[b].mean())))
+                rows.append(row)
+                print(f"{row['scene']:18s} {row['model']:22s} {label:12s} PSNR {row['psnr']:6.2f}  {secs:6.3f} s  "
+                      f"fine px {row['fine_pixels']:7d}  " + "  ".join(
+                          f"[{b['band']}] sse {b['sse']:7.1f} err {b['mean_error']:+.3f}" for b in row["bands"][:4]),
+                      flush=True)
+    if a.json:
+        a.json.write_text(json.dumps(dict(command=" ".join(sys.argv), size=list(a.size), samples=a.samples,
+                                          bands=[list(b) for b in BANDS], rows=rows), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
