@@ -35,3 +35,13 @@ def rooms(seeds, size):
         room.build_room(seed, scene)
         passes.set_resolution(scene, *size)
         yield seed, scene
+
+
+def run_main(main) -> None:
+    """``sys.exit(main())``, a UserError (bad input: a missing file, a wrong size) printed as one line, exit 2."""
+    from ssgi.model.errors import UserError
+    try:
+        sys.exit(main())
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)

@@ -21,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-import _bootstrap  # noqa: F401  (the checkout as package ssgi)
+import _bootstrap  # (the checkout as package ssgi)
 import bpy
 import numpy as np
 
@@ -34,17 +34,6 @@ from ssgi.model.infer.workres import WorkingResolution
 
 CONFIGS = (("full", "full", True), ("1/4", "4x", True), ("1/4 no fine", "4x", False), ("1/2", "2x", True))
 BANDS = ((0, 0), (1, 4), (5, 8), (9, 16), (17, 32), (33, None))  # Chebyshev distance from an emitter pixel
-
-
-def chebyshev_distance(hot: np.ndarray, cap: int = 33) -> np.ndarray:
-    """Per pixel, the Chebyshev distance to the nearest True pixel of ``hot``, capped at ``cap``."""
-    d = np.full(hot.shape, cap, np.int32)
-    m = hot.copy()
-    d[m] = 0
-    for k in range(1, cap):
-        m = fine_mod._chebyshev_grow(m)
-        d[m & (d == cap)] = k
-    return d
 
 
 def references(folder: Path) -> dict[str, Path]:
@@ -96,7 +85,7 @@ def main(argv=None) -> int:
             inner = session.predictor.inner
             mask = images.geometry_mask(g["depth"], g["normal"])
             em = np.asarray(g.get("emission", np.zeros_like(ref)))
-            dist = chebyshev_distance(em.max(-1) > fine_mod.FINE_EMISSION)
+            dist = fine_mod.chebyshev_distance(em.max(-1) > fine_mod.FINE_EMISSION, 33)
             clamp = lambda x: np.clip(x, 0, 1)  # noqa: E731  (the report's PSNR: values clamped to [0, 1])
             for label, setting, use_fine in CONFIGS:
                 w = WorkingResolution(inner, setting, fine=use_fine)
@@ -126,8 +115,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except UserError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(2)
+    _bootstrap.run_main(main)

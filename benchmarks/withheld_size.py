@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-import _bootstrap  # noqa: F401,E402  (the checkout as package ssgi)
+import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 
 from ssgi.model.cliargs import parse_size  # noqa: E402
 from ssgi.model.errors import UserError  # noqa: E402
@@ -65,8 +65,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except UserError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(2)
+    _bootstrap.run_main(main)

@@ -64,3 +64,45 @@ def test_the_node_predicts_at_its_working_resolution_and_a_sky_edge_gets_no_dark
         # of 0.25-0.35x, issue 15, would pull the edge's ratio far below the inside's)
         assert res[k]["edge"] > 0.85 * res[k]["inside"], res
         assert res[k]["edge_p05"] > 0.5, res
+
+
+EMITTER = r'''
+import json, sys
+import numpy as np
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import artist_scenes
+from ssgi.model import normalize
+from ssgi.model.infer import fine, workres
+from ssgi.ssgi_addon.blender.compositor import setup_scene
+from ssgi.ssgi_addon.blender.scene_state import preserved
+from ssgi.ssgi_addon.pipeline.render import RenderSession
+
+fine.FINE_MAX_FRACTION = 1.0  # a 192x108 frame: the crops round the panel are a large share of it
+M = str(ROOT / "models" / "ssgi_one_render.pt")
+sc = artist_scenes.build("cornell_emissive", (192, 108))
+sc.eevee.taa_render_samples = 4
+setup_scene(sc, M)
+s = RenderSession(sc, model=M, write=False, working_res="4x")
+with preserved(sc):
+    g = s._passes()
+out = s._predict(g)
+inner = s.predictor.inner
+full = inner.predict(g, stats=normalize.image_stats(workres.reduce_groups(g, 4), tuple(inner.spec)))
+plain = workres.WorkingResolution(inner, "4x", fine=False).predict(g)
+hot = g["emission"].max(-1) > fine.FINE_EMISSION
+w = fine.fine_weight(hot, 4)
+near = (w >= 1) & ~hot
+print("RESULT", json.dumps(dict(fine_px=s.predictor.last_fine_pixels, hot=int(hot.sum()), near=int(near.sum()),
+    near_full=float(np.abs(out - full)[near].max()), near_plain=float(np.abs(plain - full)[near].mean()),
+    far=float(np.abs(out - plain)[w == 0].max()))))
+'''
+
+
+def test_beside_an_emitter_the_render_path_gives_the_full_resolution_prediction():
+    p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + EMITTER, timeout=900)
+    r = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    print(r)
+    assert r["fine_px"] > 0 and r["hot"] > 50 and r["near"] > 200, r  # the panel's Emission reached the predictor
+    assert r["near_full"] < 1e-4, r  # beside the panel: the full-resolution prediction
+    assert r["near_plain"] > 1e-3, r  # which the upsampled one is not
+    assert r["far"] == 0.0, r  # away from it: the upsampled prediction, untouched
