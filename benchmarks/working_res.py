@@ -8,6 +8,7 @@ composition), each in this process with VmHWM reset before it.
     .venv/bin/python benchmarks/working_res.py --data /work/data/wr/rooms960 [/work/data/diffuse_val ...] \\
         [--model models/ssgi_default.pt] [--factors 2,4,8] [--threads 2] [--limit 6] [--crops DIR] [--json OUT]
     .venv/bin/python benchmarks/working_res.py --time-at 1920x1080 [--factors 4]     # time and memory only
+                                        # (no emitter, and one emitter panel: model/infer/fine.py's cost)
 
 Prints one table row per (folder, configuration): mean PSNR / SSIM / FLIP over the folder's samples, the median
 prediction time (wall and CPU of all threads: on a loaded machine the CPU time is the steadier number)
@@ -64,23 +65,33 @@ def crop_sheet(path, imgs: dict, ref: np.ndarray, a: np.ndarray, b: np.ndarray, 
 
 def time_at(pred, w: int, h: int, configs, threads: int, repeats: int = 5, model=None) -> list[dict]:
     """Time and peak memory of each configuration at w x h on the benchmark's synthetic inputs (the work does
-    not depend on the content): the median of ``repeats`` after a warm-up, per stage. ``cold_mb``: the peak
-    growth of one cold prediction in a fresh process (bench.peak_memory; the default guided upsample)."""
+    not depend on the content but for emitters: none here, ``emission`` is black): the median of ``repeats`` after
+    a warm-up, per stage. ``cold_mb``: the peak growth of one cold prediction in a fresh process
+    (bench.peak_memory; the default guided upsample). The default upsample at a working resolution runs again
+    "+ emitter panel": with one emissive rectangle of the Cornell panel's share of the frame at 960x540 (126 x 33
+    px: 13 % of the width, 6 % of the height), where the network also runs at full resolution (model/infer/fine.py)."""
     g = bench.synthetic_groups(w, h)
     g["rest"] = np.zeros((h, w, 3), np.float32)
+    g["emission"] = np.zeros((h, w, 3), np.float32)
+    panel = dict(g, emission=g["emission"].copy())
+    pw, ph = round(0.13 * w), round(0.06 * h)
+    panel["emission"][h // 20:h // 20 + ph, (w - pw) // 2:(w + pw) // 2] = 20.0
+    todo = [(c, g, "") for c in configs]
+    todo += [((f, m, r), panel, " + emitter panel") for f, m, r in configs if f > 1 and (m, r) == ("guided", False)]
     rows = []
-    for f, m, r in configs:
+    for (f, m, r), g, extra in todo:
         wpred = workres.WorkingResolution(pred, f if f > 1 else "full", method=m, residual=r, threads=threads)
         predict_timed(wpred, g, pred.target)
         runs = [predict_timed(wpred, g, pred.target)[1:] + (dict(wpred.last_seconds),) for _ in range(repeats)]
-        row = dict(size=f"{w}x{h}", config=label(f, m, r), seconds=float(np.median([x[0] for x in runs])),
+        row = dict(size=f"{w}x{h}", config=label(f, m, r) + extra, seconds=float(np.median([x[0] for x in runs])),
+                   fine_pixels=int(getattr(wpred, "last_fine_pixels", 0)),
                    cpu_seconds=float(np.median([x[1] for x in runs])), peak_mb=max(x[2] for x in runs),
                    **{f"t_{k}": float(np.median([x[3][k] for x in runs])) for k in runs[0][3]})
-        if model is not None and (f == 1 or (m, r) == ("guided", False)):
+        if model is not None and not extra and (f == 1 or (m, r) == ("guided", False)):
             row["cold_mb"] = bench.peak_memory(model, w, h, threads, working_res=f"{f}x").get("peak_mb")
         rows.append(row)
         print(f"{row.get('cold_mb') or 0:5.0f} MB cold  {row['size']:>9} {row['config']:<22} {row['seconds']:7.3f} s wall {row['cpu_seconds']:7.3f} s CPU "
-              f"+{row['peak_mb']:4.0f} MB  " + " ".join(f"{k[2:]} {v:.3f}" for k, v in row.items() if k.startswith("t_")),
+              f"+{row['peak_mb']:4.0f} MB  fine px {row['fine_pixels']:6d}  " + " ".join(f"{k[2:]} {v:.3f}" for k, v in row.items() if k.startswith("t_")),
               flush=True)
     return rows
 
