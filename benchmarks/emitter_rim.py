@@ -7,11 +7,13 @@ and the prediction seconds (reduce + network + upsample + fine), all in the same
 
     .venv/bin/python benchmarks/emitter_rim.py --scenes S/cornell_emissive.blend S/living_room.blend \\
         --refs REPORT/data [--models models/ssgi_one_render.pt models/ssgi_default.pt] [--size 960x540] \\
-        [--samples 16] [--json out.json]
+        [--samples 16] [--json out.json] [--crops DIR]
 
 ``--refs``: a folder baked by ``cli.py bake --scenes`` (or a report's OUT/data) at the same size: each scene's
 reference is the sample whose ``ssgi_scene`` header names it (the whole image ``ref``; a ref_diffuse model's image
-is composed with EEVEE's rest as the node shows it). ``S`` is benchmarks/artist_scenes.py's ``--out``.
+is composed with EEVEE's rest as the node shows it). ``S`` is benchmarks/artist_scenes.py's ``--out``. ``--crops DIR``:
+per scene and model, DIR/SCENE_MODEL.png: the emitters' box and 40 px round it, full | 1/4 no fine | 1/4 | reference
+above (images.srgb8), 4x |image - reference| below, magnified 2x.
 """
 from __future__ import annotations
 
@@ -62,6 +64,18 @@ def frame_groups(blend: Path, model: str, size, samples: int) -> tuple[dict, str
         return s._passes(), s
 
 
+def crop_sheet(path: Path, shown: dict, ref: np.ndarray, hot: np.ndarray, pad: int = 40) -> None:
+    ys, xs = np.nonzero(hot)
+    y0, y1 = max(0, ys.min() - pad), min(hot.shape[0], ys.max() + 1 + pad)
+    x0, x1 = max(0, xs.min() - pad), min(hot.shape[1], xs.max() + 1 + pad)
+    tiles = [shown["full"], shown["1/4 no fine"], shown["1/4"], ref]
+    top = np.concatenate([images.srgb8(t[y0:y1, x0:x1]) for t in tiles], 1)
+    err = [np.clip(np.abs(t - ref)[y0:y1, x0:x1].mean(-1, keepdims=True) * 4, 0, 1).repeat(3, -1) for t in tiles]
+    bot = (np.concatenate(err, 1) * 255).astype(np.uint8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    images.write_png(path, np.concatenate([top, bot], 0).repeat(2, 0).repeat(2, 1))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenes", nargs="+", required=True, type=Path)
@@ -70,6 +84,7 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=parse_size, default=(960, 540))
     ap.add_argument("--samples", type=int, default=16)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--crops", type=Path)
     a = ap.parse_args(argv)
     refs = references(a.refs)
     rows = []
@@ -87,13 +102,14 @@ def main(argv=None) -> int:
             em = np.asarray(g.get("emission", np.zeros_like(ref)))
             dist = fine_mod.chebyshev_distance(em.max(-1) > fine_mod.FINE_EMISSION, 33)
             clamp = lambda x: np.clip(x, 0, 1)  # noqa: E731  (the report's PSNR: values clamped to [0, 1])
+            shown = {}
             for label, setting, use_fine in CONFIGS:
                 w = WorkingResolution(inner, setting, fine=use_fine)
                 w.predict(g)  # warm
                 t = time.perf_counter()
                 pred = w.predict(g)
                 secs = time.perf_counter() - t
-                img = compose(pred, g, inner.target)
+                img = shown[label] = compose(pred, g, inner.target)
                 row = dict(scene=blend.stem, model=Path(model).name, config=label, seconds=secs,
                            fine_pixels=int(getattr(w, "last_fine_pixels", 0)),
                            psnr=metrics.score(img, ref, mask, with_ssim=False, with_flip=False)["psnr"], bands=[])
@@ -108,6 +124,8 @@ def main(argv=None) -> int:
                       f"fine px {row['fine_pixels']:7d}  " + "  ".join(
                           f"[{b['band']}] sse {b['sse']:7.1f} err {b['mean_error']:+.3f}" for b in row["bands"][:4]),
                       flush=True)
+            if a.crops and (dist == 0).any():
+                crop_sheet(a.crops / f"{blend.stem}_{Path(model).stem}.png", shown, ref, dist == 0)
     if a.json:
         a.json.write_text(json.dumps(dict(command=" ".join(sys.argv), size=list(a.size), samples=a.samples,
                                           bands=[list(b) for b in BANDS], rows=rows), indent=1))

@@ -1,13 +1,15 @@
 """Near emitters, the network at the output resolution (bpy-free, numpy only; issue 15, docs/working_res.md).
 
-Why: beside an emitter tens of times brighter than its surround, the network run at 1/4 of 960x540 predicts about
-twice the light the surround needs in the two blocks next to the emitter (the Cornell box's ceiling round its
-panel: +0.10-0.16 on a needed 0.12-0.17, measured in docs/working_res.md), and no upsample can take that back;
-the same network at full resolution does not. So the pixels within ``FINE_RING`` blocks of an emitter pixel take
-the full-resolution prediction, run on crops of the full-resolution groups (each crop its box plus the network's
-tile overlap of context) with the working resolution's whole-image statistics, fading into the upsampled
-prediction over ``FINE_FADE`` more blocks with the distance to the emitter (a seam along the blocks shows as steps
-where the two predictions differ: the living room's lamp, docs/working_res.md). Used by
+Why: beside an emitter tens of times brighter than its surround, the network run at 1/4 of 960x540 predicts far
+more light than the surround gets in the blocks next to the emitter (the Cornell box's ceiling round its panel:
+mean error +0.15 within 4 px of it and +0.13 at 5-8 px, where the reference is 0.17 and 0.12; at full resolution
++0.01 and -0.01: benchmarks/emitter_rim.py, docs/working_res.md), and no upsample can take that back.
+
+So near emitters the image takes the network's prediction at full resolution, run on crops of the full-resolution
+groups (each crop its box plus the network's tile overlap of context) with the working resolution's whole-image
+statistics: all of it on the emitter, falling smoothly to none at ``FINE_REACH`` blocks from its outline. Where the
+two predictions differ (the living room's lamp, docs/working_res.md) a seam along the blocks showed as steps, and a
+short full-resolution ring with a short fade as a dark outline; the long smooth fall shows neither. Used by
 ``workres.WorkingResolution`` (step 5).
 """
 from __future__ import annotations
@@ -18,9 +20,9 @@ from .workres import _blocks, _pad_mult, upsample_light
 
 # near emitters the network runs at the output resolution (``fine_plan``, docs/working_res.md)
 FINE_EMISSION = 0.01  # a pixel whose emission (max channel) is above this is an emitter (normalize's "glow" rule)
-FINE_RING = 2  # within this many working-resolution blocks of an emitter pixel: the full-resolution prediction
-FINE_FADE = 2  # blocks beyond the ring over which it fades (a smooth step) into the upsampled prediction
-FINE_MAX_FRACTION = 0.05  # the fine windows may cover at most this share of the output pixels, else none is run
+FINE_REACH = 6  # working-resolution blocks from an emitter pixel over which the full-resolution share falls 1 -> 0
+FINE_MAX_SHARE = 1.0  # the fine windows may cover at most this many times the working resolution's pixels (the
+#                       fine pass then costs at most what the network costs there), else none is run
 
 
 def _runs(v: np.ndarray) -> list[tuple[int, int]]:
@@ -75,30 +77,31 @@ def chebyshev_distance(hot: np.ndarray, cap: int) -> np.ndarray:
 
 
 def fine_weight(hot: np.ndarray, f: int) -> np.ndarray:
-    """Per pixel, the share of the full-resolution prediction: 1 within ``FINE_RING`` blocks (``f`` pixels each) of
-    an emitter pixel of ``hot``, falling to 0 over ``FINE_FADE`` more blocks (a smooth step of the distance, so the
-    seam follows the emitter's outline, not the blocks')."""
-    ring, fade = FINE_RING * f, FINE_FADE * f
-    t = np.clip((ring + fade - chebyshev_distance(hot, ring + fade)) / np.float32(fade), 0, 1)
+    """Per pixel, the share of the full-resolution prediction: 1 on an emitter pixel of ``hot``, falling as a
+    smooth step of the (Chebyshev) distance to 0 at ``FINE_REACH`` blocks (``f`` pixels each): the seam follows
+    the emitter's outline, not the blocks'."""
+    reach = FINE_REACH * f
+    t = 1 - chebyshev_distance(hot, reach) / np.float32(reach)
     return (t * t * (3 - 2 * t)).astype(np.float32)
 
 
 def fine_plan(emission: np.ndarray, f: int, overlap: int, multiple: int = 1) -> tuple[np.ndarray, list] | None:
-    """Where the network runs at the output resolution: every pixel within ``FINE_RING`` + ``FINE_FADE`` blocks of
-    an emitter pixel (``FINE_EMISSION``; module doc: why).
+    """Where the network runs at the output resolution: every pixel within ``FINE_REACH`` blocks of an emitter
+    pixel (``FINE_EMISSION``; module doc: why).
 
     Returns (H x W bool: the emitter pixels, [(window rows, window cols, core rows, core cols)]: each core a box
     of blocks holding such pixels (an XY cut of the blocks near emitters, so apart emitters get their own crops),
     each window its core plus ``overlap`` pixels of context on every side (at least the reach, so that the window
     holds every emitter pixel near its core), clipped to the image, starting on a multiple of ``multiple``), or
-    None where there is no emitter or the windows would cover more than ``FINE_MAX_FRACTION`` of the image."""
+    None where there is no emitter or the windows would cover more than ``FINE_MAX_SHARE`` times the pixels of the
+    working resolution."""
     e = np.asarray(emission, np.float32)
     e = e.max(-1) if e.ndim == 3 else e
     H, W = e.shape
     hot = e > FINE_EMISSION
     if not hot.any():
         return None
-    reach = FINE_RING + FINE_FADE
+    reach = FINE_REACH
     near = _blocks(_pad_mult(hot, f), f).any(-1)
     for _ in range(reach):
         near = _chebyshev_grow(near)
@@ -110,7 +113,7 @@ def fine_plan(emission: np.ndarray, f: int, overlap: int, multiple: int = 1) -> 
         wy, wx = slice(wy0, min(H, cy.stop + ctx)), slice(wx0, min(W, cx.stop + ctx))
         plan.append((wy, wx, cy, cx))
         px += (wy.stop - wy.start) * (wx.stop - wx.start)
-    if px > FINE_MAX_FRACTION * H * W:
+    if px > FINE_MAX_SHARE * near.size:
         return None
     return hot, plan
 

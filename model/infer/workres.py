@@ -29,10 +29,10 @@ the output resolution as *diffuse light* guided by the full-resolution G-buffer:
 4. ... x the full-resolution albedo: the diffuse part at the output size, whose edges are the G-buffer's own
    (an anti-aliased edge pixel's albedo is coverage x colour, so a half-covered sky-edge pixel gets half the
    surface's diffuse light, never a dark rim). compose.py then adds EEVEE's ``rest`` as at full resolution.
-5. Near emitters (fine.py): the pixels within two blocks of an emitter pixel take the network's prediction at the
-   output resolution, run on crops of the full-resolution groups with the working resolution's whole-image
-   statistics (``normalize.image_stats``), fading into the upsampled one over two more blocks; skipped where the
-   crops would cover more than ``fine.FINE_MAX_FRACTION`` of the image.
+5. Near emitters (fine.py): the network's prediction at the output resolution, run on crops of the
+   full-resolution groups with the working resolution's whole-image statistics (``normalize.image_stats``), all of
+   it on an emitter, falling smoothly to none at six blocks from it; skipped where the crops would cover more
+   pixels than the working resolution has (``fine.FINE_MAX_SHARE``).
 Over 400 lines by a few: reduce, upsample and the wrapper are one algorithm with one set of conventions.
 Vectorised numpy: the f x f sub-block positions are independent slices, run on ``default_threads()``
 threads (numpy releases the GIL). Measured in docs/working_res.md.
