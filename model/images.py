@@ -24,6 +24,8 @@ import numpy as np
 from . import files, metrics
 
 DEPTH_BACKGROUND = 1e9  # depths at or above this (or non-finite, or <= 0) are "nothing hit"
+WORLD_DEPTH_FRACTION = 0.999  # and at or above this x the camera's clip end where it is known: EEVEE's Z pass
+#                               writes about the clip end where nothing was hit (Blender 5: 500.27 for 500)
 
 
 def geometry_mask(depth: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
@@ -91,13 +93,14 @@ def _one_sided(p: np.ndarray, z: np.ndarray, axis: int) -> np.ndarray:
     return out
 
 
-def normals_from_depth(depth: np.ndarray, P) -> np.ndarray:
+def normals_from_depth(depth: np.ndarray, P, clip_end: float | None = None) -> np.ndarray:
     """HxWx3 float32 camera-space unit normals (+X right, +Y up, +Z towards the camera, facing the camera) of the
     surfaces a depth image shows: ``depth`` HxW or HxWx1 (distance along the view axis, top row first, as EEVEE's Z
     pass), ``P`` the camera's 4x4 projection at that size (OpenGL convention, Blender's calc_matrix_camera;
     perspective or orthographic). Each pixel's camera-space position is unprojected; the normal is the cross product
     of its horizontal and vertical one-sided differences (``_one_sided``). Pixels with nothing hit
-    (``geometry_mask``) get a zero normal, as in EEVEE's Normal pass. These are the geometric normals: flat per
+    (``geometry_mask``, and with ``clip_end`` the depths at ``WORLD_DEPTH_FRACTION`` of it or beyond: EEVEE's Z pass
+    there) get a zero normal, as in EEVEE's Normal pass. These are the geometric normals: flat per
     polygon where EEVEE's pass interpolates a smooth-shaded mesh's (session 30: on the artist test set at 960x540
     the two differ by a median 0.02-1.8 degrees)."""
     # (float32 throughout: neighbouring pixels' positions differ by millimetres to centimetres, float32 resolves
@@ -109,6 +112,8 @@ def normals_from_depth(depth: np.ndarray, P) -> np.ndarray:
     if H < 2 or W < 2:
         raise ValueError(f"depth image of {W}x{H} pixels: normals need at least 2x2")
     geo = geometry_mask(z)
+    if clip_end is not None:
+        geo &= z < np.float32(WORLD_DEPTH_FRACTION * clip_end)
     zz = np.where(geo, z, np.float32(0.0))
     nx = ((np.arange(W, dtype=np.float32) + 0.5) / W * 2.0 - 1.0)[None, :]
     ny = (1.0 - (np.arange(H, dtype=np.float32) + 0.5) / H * 2.0)[:, None]

@@ -650,11 +650,12 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
 
 def _normals_from_depth(scene, depth: np.ndarray) -> np.ndarray:
     """World-space normals (as EEVEE's Normal pass gives them) of the surfaces the Z pass ``depth`` shows
-    (model/images.normals_from_depth, in camera space, turned by the camera's rotation)."""
+    (model/images.normals_from_depth, in camera space, turned by the camera's rotation); zero where it shows the
+    world (the depth at the camera's clip end)."""
     from ...model.images import normals_from_depth
     from .views import camera_matrices
     h, w = depth.shape[:2]
-    n = normals_from_depth(depth, camera_matrices(scene, size=(w, h))["P"])
+    n = normals_from_depth(depth, camera_matrices(scene, size=(w, h))["P"], clip_end=scene.camera.data.clip_end)
     return np.einsum("hwj,ij->hwi", n.astype(np.float64), camera_rotation(scene)).astype(np.float32)
 
 

@@ -43,6 +43,7 @@ import numpy as np
 
 from ...model import channels as ch, files
 from ...model.errors import UserError
+from ...model.images import WORLD_DEPTH_FRACTION  # depth >= this x clip_end: no geometry
 from ..blender import node as ssgi_node
 from ..blender.compositor import save_multilayer, standins
 from ..blender.predictor import load_model, missing_passes, pass_label
@@ -50,7 +51,6 @@ from ..blender.scene_state import preserved
 
 # how many SSGI renders are running right now (the render_pre handler leaves those alone)
 _ACTIVE = 0
-WORLD_DEPTH_FRACTION = 0.999  # depth >= this * clip_end: no geometry (EEVEE writes clip_end there)
 
 
 def peak_rss_mb() -> float:

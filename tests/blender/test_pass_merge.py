@@ -374,6 +374,14 @@ try:
     passes.render_gbuffer(sc, groups, normals="smooth")
 except ValueError as e:
     res["bad"] = str(e)
+# where the world shows (EEVEE's Z pass: about the clip end), the derived normal is zero, as the pass's
+ext = artist_scenes.build("exterior", size=(96, 54))
+ext.eevee.taa_render_samples = 2
+de, pe = passes.render_gbuffer(ext, groups), passes.render_gbuffer(ext, groups, normals="pass")
+world = ~(np.abs(pe["normal"]).sum(-1) > 0.5)
+dzero = ~(np.abs(de["normal"]).sum(-1) > 0.5)
+res["world_px"], res["world_derived_nonzero"] = int(world.sum()), int((world & ~dzero).sum())
+res["geometry_derived_zero"] = int((~world & dzero).sum())
 print("RESULT", json.dumps(res))
 '''
 
@@ -381,7 +389,7 @@ print("RESULT", json.dumps(res))
 def test_a_one_render_frame_takes_its_normals_from_the_depth_and_they_are_the_passs_on_flat_surfaces():
     """passes.NORMALS_FROM_DEPTH (session 30): a one-render model's frame writes no Normal pass (its flag, on as
     setup_scene leaves it, is off for the render and back after it); its normals, from the Z pass, are unit length on
-    geometry, zero where nothing was hit, and agree with EEVEE's Normal pass (normals="pass", what a bake stores) to
+    geometry, zero where nothing was hit (the exterior's sky, where the Z pass holds the clip end), and agree with EEVEE's Normal pass (normals="pass", what a bake stores) to
     a median under 1 degree in the closed room (walls, a crate, a ball, a column); every other group is the same. A
     model without a one render keeps the pass; an unknown source is refused."""
     p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + NORMAL_CODE, timeout=600)
@@ -390,5 +398,9 @@ def test_a_one_render_frame_takes_its_normals_from_the_depth_and_they_are_the_pa
     assert res["flag_after"] is True, res
     assert res["angle_median"] < 1.0 and res["angle_p90"] < 10.0, res
     assert res["unit"] < 1e-4 and res["zero_outside"], res
+    # the exterior's sky: zero derived normals exactly where the pass has none (but for a few anti-aliased
+    # silhouette pixels, whose Z is the surface's and whose pass normal is a blend)
+    assert res["world_px"] > 500 and res["world_derived_nonzero"] == 0, res
+    assert res["geometry_derived_zero"] < 0.02 * (96 * 54 - res["world_px"]), res
     assert all(v == 0.0 for v in res["same"].values()), res
     assert "'pass' or 'depth'" in res["bad"], res

@@ -58,11 +58,13 @@ def test_pixels_beside_a_silhouette_take_their_own_surface_and_the_background_is
     box, nb = plane_depth(P, (0.6, 0.0, 0.8), -3.0)          # a face turned to the right, 3 m away
     cols = np.arange(W)[None, :].repeat(H, 0)
     z = np.where(cols < 30, box, wall)                      # the face covers the left half: a depth jump at x = 30
-    z[:4] = 1e10                                            # the top rows see nothing (EEVEE's Z pass there)
-    got = normals_from_depth(z, P)
-    assert np.all(got[:4] == 0.0)
-    assert np.abs(got[4:, :30] - nb).max() < 2e-3           # up to the last pixel before the jump
-    assert np.abs(got[4:, 30:] - nw).max() < 2e-3           # from the first pixel after it
+    z[:4] = 1e10                                            # the top rows see nothing
+    z[4:6] = 100.02                                         # nor these: EEVEE's Z pass writes about the clip end there
+    got = normals_from_depth(z, P, clip_end=100.0)
+    assert np.all(got[:6] == 0.0)
+    assert (np.abs(normals_from_depth(z, P)[4:6]).sum(-1) > 0.5).all()  # a plane at 100 m, without the clip end
+    assert np.abs(got[6:, :30] - nb).max() < 2e-3           # up to the last pixel before the jump
+    assert np.abs(got[6:, 30:] - nw).max() < 2e-3           # from the first pixel after it
     assert DEPTH_BACKGROUND < 1e10
 
 
