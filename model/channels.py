@@ -299,6 +299,16 @@ def required_groups(spec: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(out)
 
 
+# the groups of which a one-render model reads one: its every group, and its rest or Combined image, come from one
+# EEVEE render (docs/one_render.md; the Blender half's passes.ONE_RENDER_MODES has their render settings)
+ONE_RENDER_GROUPS: tuple[str, ...] = ("eevee_diffuse", "eevee_local", "eevee_combined")
+
+
+def one_render(spec: tuple[str, ...]) -> bool:
+    """Whether a model of input ``spec`` is a one-render model (``ONE_RENDER_GROUPS``)."""
+    return any(g in ONE_RENDER_GROUPS for g in required_groups(spec))
+
+
 def required_passes(spec: tuple[str, ...]) -> tuple[str, ...]:
     """Blender view-layer pass flags (``use_pass_*``) needed for ``spec``."""
     return tuple(dict.fromkeys(GROUPS[g].blender_pass for g in required_groups(spec) if GROUPS[g].blender_pass))

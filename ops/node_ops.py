@@ -163,8 +163,9 @@ def register_extra():
         description="SSGI model checkpoint (.pt); empty uses the scene's model or the shipped default")
     bpy.types.CompositorNodeGroup.ssgi_working_res = bpy.props.StringProperty(
         name="Working Resolution", default="",
-        description="Resolution the network predicts at, upsampled with the full-resolution G-buffer: auto (1/4 "
-                    "linear from 960 px wide, else full), full, 2x/4x/8x (1/N per axis) or a size such as 480x270")
+        description="Resolution the network predicts at, upsampled with the full-resolution G-buffer: auto (from "
+                    "960 px wide 1/4 linear for a one-render model, else a working image 480 px wide; below, "
+                    "full), full, 2x/4x/8x (1/N per axis) or a size such as 480x270")
     # an enum drawn as a menu, stored as the plain string ID property the render path reads (render_temporal.py)
     modes = ("auto", "on", "off")
     bpy.types.CompositorNodeGroup.ssgi_temporal = bpy.props.EnumProperty(

@@ -49,8 +49,13 @@ from ..errors import UserError
 
 FULL = "full"
 AUTO = "auto"
-AUTO_MIN_WIDTH = 960  # "auto": outputs at least this wide predict at 1/AUTO_FACTOR linear (docs/working_res.md)
+# "auto" (docs/working_res.md, session 31): full resolution below AUTO_MIN_WIDTH; from there a one-render model (the
+# frame that must cost no more than EEVEE's GI) at 1/AUTO_FACTOR, any other model at the largest factor that keeps
+# the working image AUTO_WORK_WIDTH wide (1/2 at 960, 1/4 at 1920): the default model at 1/4 of 960x540 lost 0.47 dB
+# to full resolution on the artist exterior, 0.14 at 1/2 and 0.23 at 1/4 of 1920x1080
+AUTO_MIN_WIDTH = 960
 AUTO_FACTOR = 4
+AUTO_WORK_WIDTH = 480
 SIGMA_Z = 0.05  # relative depth difference (log z) of the range kernel
 SIGMA_N = 0.1  # 1 - cos(angle) of the normal range kernel (0.1: ~25 degrees)
 SIGMA_S = 0.75  # spatial Gaussian, in working-resolution pixels
@@ -79,14 +84,17 @@ def parse_setting(text) -> str | int | tuple[int, int]:
                     f"size per axis) or a size like '480x270'")
 
 
-def factor_for(setting, width: int, height: int) -> int:
+def factor_for(setting, width: int, height: int, one_render: bool = False) -> int:
     """The integer reduction factor of ``setting`` (parsed or text) for an output of ``width`` x ``height``.
-    A size WxH gives the smallest factor whose working size fits in it."""
+    A size WxH gives the smallest factor whose working size fits in it. ``one_render``: "auto" for a one-render
+    model (``channels.one_render``)."""
     s = parse_setting(setting) if isinstance(setting, str) else setting
     if s == FULL:
         return 1
     if s == AUTO:
-        return AUTO_FACTOR if width >= AUTO_MIN_WIDTH else 1
+        if width < AUTO_MIN_WIDTH:
+            return 1
+        return AUTO_FACTOR if one_render else max(1, width // AUTO_WORK_WIDTH)
     if isinstance(s, int):
         return max(1, s)
     w, h = s
@@ -373,11 +381,11 @@ class WorkingResolution:
     resolution. ``setting``: "full", "auto", "Nx", "WxH" or an int factor (parse_setting). ``method``:
     "guided" or "bilinear"; ``residual``: keep the full-resolution direct light (upsample_part; off by default:
     +0.04-0.05 dB but the 4-sample soft direct pass's grain and the hard pass's steps come back, and SSIM drops,
-    docs/working_res.md); ``threads``: the
-    upsample's (upsample_light); ``fine``: the full-resolution prediction near emitters (step 5; a model's
-    predictor only, where the groups hold ``emission``). After ``predict``: ``last_factor``, ``last_seconds``
-    (reduce, network, upsample, fine) and ``last_fine_pixels`` (the pixels the network ran on at full resolution). Everything else (``spec``, ``required``, ``last_repaired``, ...) is the inner
-    predictor's. A whole-image (``ref``) model's prediction is upsampled as is (confidence: geometry)."""
+    docs/working_res.md); ``threads``: the upsample's (upsample_light); ``fine``: the full-resolution prediction
+    near emitters (step 5; a model's predictor only, where the groups hold ``emission``). After ``predict``:
+    ``last_factor``, ``last_seconds`` (reduce, network, upsample, fine) and ``last_fine_pixels`` (the pixels the
+    network ran on at full resolution). Everything else (``spec``, ``required``, ``last_repaired``, ...) is the
+    inner predictor's. A whole-image (``ref``) model's prediction is upsampled as is (confidence: geometry)."""
 
     def __init__(self, predictor, setting="auto", method: str = "guided", residual: bool = False,
                  threads: int | None = None, fine: bool = True):
@@ -403,7 +411,7 @@ class WorkingResolution:
         return getattr(self.inner, "inputs", self.inner.spec)
 
     def factor(self, width: int, height: int) -> int:
-        return factor_for(self.setting, width, height)
+        return factor_for(self.setting, width, height, ch.one_render(tuple(self.inner.spec)))
 
     def predict(self, groups: dict, tile: int | None = -1) -> np.ndarray:
         import time

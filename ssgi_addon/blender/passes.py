@@ -62,6 +62,7 @@ ONE_RENDER_MODES: dict[str, tuple[bool, bool, bool]] = {"eevee_diffuse": (True, 
                                                         "eevee_local": (False, True, PROXY_SHADOWS_LOCAL),
                                                         # the same render, read as its Combined image
                                                         "eevee_combined": (False, True, PROXY_SHADOWS_LOCAL)}
+assert tuple(ONE_RENDER_MODES) == ch.ONE_RENDER_GROUPS  # the bpy-free half names the same groups
 
 
 def _recorded_proxies(meta: dict) -> dict | None:

@@ -57,8 +57,9 @@ def register_cli(sub) -> None:
     add_runtime_args(p)
     p.add_argument("--working-res", type=cliargs.working_res, default=None, metavar="auto|full|Nx|WxH",
                    help="resolution the network predicts at, upsampled with the full-resolution G-buffer: auto "
-                        "(1/4 per axis for outputs >= 960 px wide, else full), full, 4x (1/4 per axis) or a size "
-                        "such as 480x270 (default: the SSGI node's setting, else auto; docs/working_res.md)")
+                        "(from 960 px wide 1/4 per axis for a one-render model, else a working image 480 px wide; "
+                        "below, full), full, 4x (1/4 per axis) or a size such as 480x270 (default: the SSGI node's "
+                        "setting, else auto; docs/working_res.md)")
     p.add_argument("--temporal", choices=("auto", "on", "off"), default=None,
                    help="blend each frame with the motion-reprojected predictions of the frames before it (less "
                         "flicker): auto = on when more than one frame is rendered (default: the SSGI node's "

@@ -86,8 +86,9 @@ def register_cli(sub) -> None:
     p.add_argument("--threads", type=cliargs.positive_int, default=D.threads,
                    help="torch threads for the predictions (default %(default)s, the add-on's default)")
     p.add_argument("--working-res", type=cliargs.working_res, default=D.working_res, metavar="auto|full|Nx|WxH",
-                   help="resolution the models predict at, as the SSGI node's setting (default %(default)s: 1/4 per "
-                        "axis from 960 px wide, else full; docs/working_res.md)")
+                   help="resolution the models predict at, as the SSGI node's setting (default %(default)s: from 960 "
+                        "px wide 1/4 per axis for a one-render model, else a working image 480 px wide (1/2 at 960, "
+                        "1/4 at 1920); below, full; docs/working_res.md)")
     p.add_argument("--no-fit-baseline", action="store_true",
                    help="with --data and no linear model among --models, do not fit one (closed form, seconds)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")

@@ -186,7 +186,8 @@ def register_cli(sub) -> None:
     add_runtime_args(p)
     p.add_argument("--working-res", type=working_res, default="auto", metavar="auto|full|Nx|WxH",
                    help="resolution the network predicts at, upsampled with the sample's full-resolution G-buffer "
-                        "(default auto: 1/4 per axis for inputs >= 960 px wide, else full)")
+                        "(default auto: from 960 px wide 1/4 per axis for a one-render model, else a working image 480 "
+                        "px wide; below, full)")
     p.set_defaults(func=run_predict)
 
     p = sub.add_parser("export", help="export a checkpoint as ONNX (runs without torch, in the bundled onnxruntime)",

@@ -10,7 +10,7 @@ Per frame:
    EEVEE's Combined for the world pixels). Every scene setting it changes (engine, EEVEE settings, light
    data, view-layer passes, output format) is put back afterwards by ``scene_state.preserved()``.
 2. The model predicts linear HDR RGB, at the working resolution (``working_res``, the node's setting; default
-   "auto": 1/4 linear from 960 px wide) and upsampled with the full-resolution G-buffer (model/infer/workres.py). Pixels with no geometry (depth at the camera's clip end, or zero alpha)
+   "auto": from 960 px wide 1/4 linear for a one-render model, else a working image 480 px wide) and upsampled with the full-resolution G-buffer (model/infer/workres.py). Pixels with no geometry (depth at the camera's clip end, or zero alpha)
    keep EEVEE's Combined colour. Alpha is not predicted: the node takes it from its Image input.
 3. The prediction goes into the "SSGI Prediction" image (node.py). The pass render's result is saved as a
    multilayer EXR and loaded into Image nodes that stand in for the tree's Render Layers nodes (an Image

@@ -17,7 +17,10 @@ def test_the_setting_reads_full_auto_a_factor_or_a_size_and_names_a_bad_value():
     assert wr.parse_setting("full") == "full" and wr.parse_setting("1x") == "full"
     assert wr.parse_setting("4x") == 4 and wr.parse_setting("1/4") == 4
     assert wr.parse_setting("480x270") == (480, 270)
-    assert wr.factor_for("auto", 1920, 1080) == wr.AUTO_FACTOR and wr.factor_for("auto", 320, 180) == 1
+    assert wr.factor_for("auto", 1920, 1080) == 4 and wr.factor_for("auto", 320, 180) == 1
+    # auto: a working image 480 px wide from 960 (1/2 at 960, 1/3 at 1440, 1/8 at 3840), a one-render model 1/4
+    assert [wr.factor_for("auto", w, w * 9 // 16) for w in (959, 960, 1280, 1440, 3840)] == [1, 2, 2, 3, 8]
+    assert [wr.factor_for("auto", w, w * 9 // 16, one_render=True) for w in (959, 960, 1920, 3840)] == [1, 4, 4, 4]
     assert wr.factor_for("480x270", 1920, 1080) == 4 and wr.factor_for("500x300", 1920, 1080) == 4
     assert wr.factor_for("full", 1920, 1080) == 1
     for bad in ("quarter", "0x", "0x10", "-2x"):
@@ -203,3 +206,16 @@ def test_anti_aliased_sky_edge_pixels_keep_their_coverage_times_the_surface_ligh
             np.testing.assert_allclose(out[:, 29], 0.3 * L, rtol=1e-4)  # the edge column: not darker
             np.testing.assert_allclose(out[:, :29], 0.6 * L, rtol=1e-4)
             assert (out[:, 30:] == 0).all()
+
+
+def test_auto_keeps_a_one_render_model_at_a_quarter_and_another_model_480_px_wide():
+    g = _room(H=540, W=960)
+
+    class OneRender(Analytic):
+        spec = required = ("albedo", "normal", "depth", "direct_soft", "eevee_combined")
+
+    g["eevee_combined"] = g["direct_soft"]
+    for inner, f in ((Analytic(), 2), (OneRender(), 4)):
+        w = wr.WorkingResolution(inner, "auto")
+        w.predict(g)
+        assert w.last_factor == f and inner.sizes[-1] == (540 // f, 960 // f)
