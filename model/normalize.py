@@ -171,22 +171,35 @@ def to_inputs(groups: dict[str, np.ndarray], spec: tuple[str, ...], stats: dict 
     """The network input for ``spec`` as an HxWxC float32 array (C = channels.input_channels(spec)), finite
     everywhere, and the number of repaired pixels. ``groups`` are raw HxWxC arrays as read from a sample.
     ``stats``: ``image_stats`` of the whole image when ``groups`` are a crop of it (None: this image's own)."""
+    x, n_bad, _ = inputs_and_stats(groups, spec, stats)
+    return x, n_bad
+
+
+def inputs_and_stats(groups: dict[str, np.ndarray], spec: tuple[str, ...],
+                     stats: dict | None = None) -> tuple[np.ndarray, int, dict]:
+    """``to_inputs`` and the whole-image values it used: ``stats`` or, when None, this image's own (then equal to
+    ``image_stats``, without a second pass: the predictor's output bound and the working resolution's crops near
+    emitters read them)."""
     rep, n_bad = _repaired(groups, spec)
     h, w = next(iter(rep.values())).shape[:2]
     x = np.empty((h, w, ch.input_channels(spec)), np.float32)
+    used = {}
     for g, sl in layout(spec).items():
-        if stats is not None and g in ch.STAT_GROUPS:  # kind "stat": stored as derived() makes them
-            x[..., sl] = stats[g]
+        if g in ch.STAT_GROUPS:  # kind "stat": stored as derived() makes them
+            used[g] = stats[g] if stats is not None else derived(g, rep)[0, 0].copy()
+            x[..., sl] = used[g]
             continue
         a = derived(g, rep) if g in ch.DERIVED else rep[g]
         kind = _kind(g)
         if kind == "light":
             np.log1p(a, out=x[..., sl])
         elif kind == "depth":
-            x[..., sl] = depth_normalise(a, rep.get("normal"), None if stats is None else stats.get("depth_median"))
+            m = stats.get("depth_median") if stats is not None else depth_median(a, rep.get("normal"))
+            used["depth_median"] = m
+            x[..., sl] = depth_normalise(a, rep.get("normal"), m)
         else:
             x[..., sl] = a
-    return x, n_bad
+    return x, n_bad, used
 
 
 def light_forward(x):

@@ -68,7 +68,12 @@ def run_tiled(forward, x: np.ndarray, tile: int | None, multiple: int, ov: int) 
     layout its runtime wants."""
     h, w = x.shape[-2:]
     ph, pw = (-h) % multiple, (-w) % multiple
-    xp = np.pad(x, ((0, 0), (0, 0), (0, ph), (0, pw)), mode="edge") if (ph or pw) else x
+    xp = x
+    if ph or pw:  # np.pad(mode="edge")'s values and layout, 3x faster (one copy, the edge rows and columns after)
+        xp = np.empty(x.shape[:2] + (h + ph, w + pw), x.dtype)
+        xp[..., :h, :w] = x
+        xp[..., h:, :w] = x[..., h - 1:h, :]
+        xp[..., :, w:] = xp[..., :, w - 1:w]
     plan = tile_plan(xp.shape[-2], xp.shape[-1], tile, multiple, ov)
     if len(plan) == 1:
         out = forward(xp)
@@ -106,6 +111,7 @@ class ContractPredictor:
         self.kind = meta.get("kind", "network")
         self.tile = tile
         self.last_repaired = 0
+        self.last_stats: dict | None = None
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -134,11 +140,12 @@ class ContractPredictor:
     def predict(self, groups: dict[str, np.ndarray], tile: int | None = -1, stats: dict | None = None) -> np.ndarray:
         """``stats``: ``normalize.image_stats`` of the whole image when ``groups`` are a crop of it."""
         self.check_groups(groups)
-        x, self.last_repaired = normalize.to_inputs(groups, self.spec, stats)
+        x, self.last_repaired, used = normalize.inputs_and_stats(groups, self.spec, stats)
+        self.last_stats = used  # the whole-image values of this input (normalize.image_stats)
         x = x.transpose(2, 0, 1)[None]  # HxWxC memory: a channels-last view of 1xCxHxW
         out = run_tiled(self._forward, x, self.tile if tile == -1 else tile, self.multiple, self.overlap)
         lin = np.ascontiguousarray(out[0].transpose(1, 2, 0), dtype=np.float32)
-        lin = finish(lin, groups, self.spec, self.required)
+        lin = finish(lin, groups, self.spec, self.required, used)
         if self.target == ch.COMBINED_TARGET:
             return combined_part(lin, groups)
         return lin
@@ -153,12 +160,21 @@ def combined_part(image: np.ndarray, groups: dict) -> np.ndarray:
     return image
 
 
-def finish(lin: np.ndarray, groups: dict, spec: tuple[str, ...], required: tuple[str, ...]) -> np.ndarray:
-    """Step 4: bound ``lin`` (HxWx3, in place) and zero it where the albedo is black."""
+def finish(lin: np.ndarray, groups: dict, spec: tuple[str, ...], required: tuple[str, ...],
+           stats: dict | None = None) -> np.ndarray:
+    """Step 4: bound ``lin`` (HxWx3, in place) and zero it where the albedo is black. ``stats``: the statistics
+    vectors the input used (normalize.inputs_and_stats), read instead of deriving them again (two sorts of the
+    image's pixels: 0.1 s of a 480x270 prediction)."""
     lights = [g for g in spec if ch.GROUPS.get(g) is None or ch.GROUPS[g].kind == "light"]
     if lights:
-        rep, _ = normalize.repair({g: groups[g] for g in ch.required_groups(tuple(lights))})
-        peak = max(float(np.max(normalize.derived(g, rep) if g in ch.DERIVED else rep[g], initial=0.0)) for g in lights)
+        stats = stats or {}
+        rep, _ = normalize.repair({g: groups[g] for g in ch.required_groups(tuple(g for g in lights if g not in stats))})
+
+        def top(g):
+            a = stats[g] if g in stats else normalize.derived(g, rep) if g in ch.DERIVED else rep[g]
+            return float(np.max(a, initial=0.0))
+
+        peak = max(top(g) for g in lights)
         np.minimum(lin, np.float32(OUTPUT_BOUND * max(1.0, peak)), out=lin)
     if "albedo" in required:
         lin[~(np.asarray(groups["albedo"]) > 0).any(axis=-1)] = 0.0

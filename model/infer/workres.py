@@ -447,7 +447,9 @@ class WorkingResolution:
         if fine is not None:
             from .. import normalize
             from .fine import fine_blend
-            stats = normalize.image_stats(lo, tuple(self.inner.spec))  # the statistics the low-res network saw
+            stats = getattr(self.inner, "last_stats", None)  # the statistics the low-res network saw
+            if stats is None:
+                stats = normalize.image_stats(lo, tuple(self.inner.spec))
             self.last_fine_pixels = fine_blend(out, {k: v for k, v in groups.items() if k in need},
                                                lambda g: self.inner.predict(g, tile=tile, stats=stats), *fine, f)
         self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=t3 - t2, fine=time.perf_counter() - t3)

@@ -129,3 +129,38 @@ def test_the_plan_covers_partial_border_blocks(size, no_cap):
     (wy, wx, cy, cx), = plan
     assert cy.stop == H and cx.stop == W and wy.stop == H and wx.stop == W
     assert fine.fine_weight(hot, 4)[H - 1, W - 1] == 1 and fine.fine_weight(hot, 4)[H - 2, W - 2] > 0.9
+
+
+def test_the_input_reports_the_whole_image_values_it_used_and_the_edge_padding_is_np_pads():
+    from ssgi.model.infer import contract
+    g = _one_render_groups(W=97, H=61)
+    spec = ("albedo", "normal", "depth", "emission", "eevee_combined", "scene_comb", "glow", "surround", "sky")
+    x, _, used = normalize.inputs_and_stats(g, spec)
+    want = normalize.image_stats(g, spec)
+    assert set(used) == set(want) == {"scene_comb", "glow", "depth_median"}
+    for k in want:
+        np.testing.assert_array_equal(used[k], want[k])
+    np.testing.assert_array_equal(x, normalize.to_inputs(g, spec)[0])
+    seen = []
+
+    def forward(a):
+        seen.append(np.array(a))
+        return np.zeros((1, 3) + a.shape[-2:], np.float32)
+
+    xv = x.transpose(2, 0, 1)[None]  # the predictor's channels-last view
+    contract.run_tiled(forward, xv, None, 4, 0)
+    np.testing.assert_array_equal(seen[0], np.pad(xv, ((0, 0), (0, 0), (0, 3), (0, 3)), mode="edge"))
+
+
+def test_the_predictor_keeps_the_values_its_last_input_used():
+    from ssgi.model.infer.predictor import load_predictor
+    pred = load_predictor(ROOT / "models" / "ssgi_one_render.pt", num_threads=1)
+    g = _one_render_groups()
+    pred.predict(g)
+    want = normalize.image_stats(g, tuple(pred.spec))
+    assert all(np.array_equal(pred.last_stats[k], want[k]) for k in want)
+    crop = {k: v[:40, :60] for k, v in g.items()}
+    pred.predict(crop, stats=want)  # a crop given the frame's: those are what it used
+    own = normalize.image_stats(crop, tuple(pred.spec))
+    assert all(np.array_equal(pred.last_stats[k], want[k]) for k in want)
+    assert not np.array_equal(own["scene_comb"], want["scene_comb"])  # (the crop's own differ)
