@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .workres import _blocks, _pad_mult, upsample_light
+from .workres import _blocks, _pad_mult
 
 # near emitters the network runs at the output resolution (``fine_plan``, docs/working_res.md)
 FINE_EMISSION = 0.01  # a pixel whose emission (max channel) is above this is an emitter (normalize's "glow" rule)
