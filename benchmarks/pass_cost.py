@@ -51,6 +51,7 @@ from pass_flags import cpu_s, optional_pass_flags  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
+from ssgi.model.images import WORLD_DEPTH_FRACTION  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
 from ssgi.ssgi_addon.blender import passes  # noqa: E402
 
@@ -274,7 +275,7 @@ def facts(size=(96, 54)) -> dict:
         vl.use_pass_environment = True
         scene.eevee.taa_render_samples = 2
         env = passes._rgb(passes._render(scene), "Environment")
-    geo = g["depth"][..., 0] < 0.999 * scene.camera.data.clip_end
+    geo = g["depth"][..., 0] < WORLD_DEPTH_FRACTION * scene.camera.data.clip_end
     out["environment_mean_on_geometry"] = float(env[geo].mean())
     out["environment_mean_on_sky"] = float(env[~geo].mean())
     out["world_group_mean_on_geometry"] = float(g["world"][geo].mean())

@@ -55,6 +55,7 @@ def main() -> None:
     import bpy
     import numpy as np
     from ssgi.model.cliargs import parse_size
+    from ssgi.model.images import WORLD_DEPTH_FRACTION
     from ssgi.ssgi_addon.blender import passes
 
     bpy.ops.wm.open_mainfile(filepath=a.blend)
@@ -88,7 +89,7 @@ def main() -> None:
             imgs[k], c = render(k)
             cpus[k].append(round(c, 2))
     g = passes.render_gbuffer(sc, ("albedo", "depth", "normal"), samples=1)
-    geo = g["depth"][..., 0] < 0.999 * sc.camera.data.clip_end
+    geo = g["depth"][..., 0] < WORLD_DEPTH_FRACTION * sc.camera.data.clip_end
     black = geo & (g["albedo"][..., :3].max(-1) < 0.05)
     rest = geo & ~black
 

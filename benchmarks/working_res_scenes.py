@@ -11,7 +11,7 @@ untimed run), all in the same run.
         [--configs full 1/4 "1/4 no fine" 1/2] [--no-flip] [--json out.json] [--crops DIR]
 
 ``--refs``: folders baked by ``cli.py bake --scenes`` (or a report's OUT/data) at the same size: each scene's
-reference is the sample whose ``ssgi_scene`` header names it (the whole image ``ref``; a ref_diffuse model's image
+reference is the sample whose manifest entry names it (the whole image ``ref``; a ref_diffuse model's image
 is composed with EEVEE's rest as the node shows it). ``S`` is benchmarks/artist_scenes.py's ``--out``. ``--crops DIR``:
 per scene with an emitter and model, DIR/SCENE_MODEL.png: the emitters' box and 40 px round it, full | 1/4 no fine |
 1/4 | reference above (images.srgb8), 4x |image - reference| below, magnified 2x. Ends with each model and
@@ -41,14 +41,12 @@ BANDS = ((0, 0), (1, 4), (5, 8), (9, 16), (17, 32), (33, None))  # Chebyshev dis
 
 
 def references(folders) -> dict[str, Path]:
-    """{scene name: the sample of the folders that names it in its ``ssgi_scene`` header} (the first found)."""
-    import OpenEXR
+    """{scene name: the sample of the folders whose manifest entry names it} (the first found)."""
+    from ssgi.model.dataset import folder as dataset
     out = {}
-    for folder in folders:
-        for p in sorted(Path(folder).glob("*.exr")):
-            name = OpenEXR.File(str(p)).header().get("ssgi_scene")
-            if name:
-                out.setdefault(str(name), p)
+    for d in folders:
+        for key, s in sorted(dataset.open_folder(d, scenes=True)["samples"].items()):
+            out.setdefault(str(s["scene"]), dataset.sample_path(d, key))
     return out
 
 

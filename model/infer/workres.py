@@ -445,11 +445,8 @@ class WorkingResolution:
         t3 = time.perf_counter()
         self.last_fine_pixels = 0
         if fine is not None:
-            from .. import normalize
             from .fine import fine_blend
-            stats = getattr(self.inner, "last_stats", None)  # the statistics the low-res network saw
-            if stats is None:
-                stats = normalize.image_stats(lo, tuple(self.inner.spec))
+            stats = self.inner.last_stats  # the whole-image values the low-res network's input used
             self.last_fine_pixels = fine_blend(out, {k: v for k, v in groups.items() if k in need},
                                                lambda g: self.inner.predict(g, tile=tile, stats=stats), *fine, f)
         self.last_seconds = dict(reduce=t1 - t0, network=t2 - t1, upsample=t3 - t2, fine=time.perf_counter() - t3)

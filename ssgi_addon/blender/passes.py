@@ -389,8 +389,9 @@ SKIP_EMPTY_EMISSION = True
 # On Mesa the Normal pass cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 alone and about 0.5 beside
 # the Diffuse Color and Z passes, of the 4.1 that EEVEE's own GI costs there (session 30, benchmarks/pass_flags.py;
 # the frame then came out at 0.978x plain EEVEE GI, benchmarks/pass_cost.py); the two normals differ by a median
-# 0.02-1.8 degrees on the artist test set, and the shipped one-render model scored 22.43 dB there against 22.31 with
-# the pass (docs/one_render.md). Bakes keep the pass (bake.py asks normals="pass"), and so do the frames of a model with a
+# 0.02-1.8 degrees on the artist test set, and the shipped one-render model scores 22.31 dB there at 320x180 with
+# either (session 31; session 30's 22.43 came from world pixels given a far plane's normal, fixed by the clip end in
+# _normals_from_depth; docs/one_render.md). Bakes keep the pass (bake.py asks normals="pass"), and so do the frames of a model with a
 # shot's lightmap or reflection map, which read each pixel's own normal (pipeline/render.py).
 NORMALS_FROM_DEPTH = True
 
