@@ -13,6 +13,7 @@ The subcommands are the modules that ``ssgi_addon/commands/__init__.py:modules()
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import importlib.util
 import json
@@ -105,8 +106,12 @@ def main(argv: list[str] | None = None) -> int:
     from ssgi.model import errors
     parser = build_parser()
     args = parser.parse_args(_argv() if argv is None else argv)
+    from ssgi.model.dataset.exrio import stdout_to_stderr
     try:
-        result = args.func(args) or {}
+        # with --json, stdout holds only the summary: what Blender's C code prints meanwhile (Cycles' "CUEW
+        # initialization failed", "Read blend: ...") goes to stderr
+        with stdout_to_stderr() if getattr(args, "json", False) else contextlib.nullcontext():
+            result = args.func(args) or {}
     except errors.UserError as e:
         return _fail(args, 2, str(e))
     except KeyboardInterrupt:

@@ -3,12 +3,15 @@
     summary = run(DemoConfig(out="out/demo", seed=7, size=(240, 135), ref_samples=128))
 
 1. randomize a room (ssgi_addon/blender/room.py ``build_room(seed)``);
-2. render it with SSGI: EEVEE's direct-only passes -> the model -> the SSGI compositor node (pipeline/render.py
+2. render it with SSGI: the passes the model reads -> the model -> the SSGI compositor node (pipeline/render.py
    ``RenderSession``, after blender/compositor.py ``setup_scene``), with the shipped default model
-   models/ssgi_default.pt;
-3. render the Cycles reference (blender/passes.py ``render_cycles``);
-4. write PNGs into ``out``: eevee_direct.png, ssgi.png, cycles_reference.png and sheet.png (side by side), and
-   print the times and the PSNR of EEVEE direct light and of SSGI against Cycles.
+   models/ssgi_default.pt, and take the frame the node shows;
+3. render what costs about the same, for comparison: EEVEE's own render with ray tracing and fast GI at the same
+   samples (pipeline/report_run.py ``render_eevee_gi``) and Cycles 1 sample + OpenImageDenoise;
+4. render the Cycles reference (blender/passes.py ``render_cycles``);
+5. write PNGs into ``out``: eevee_gi.png, ssgi.png, cycles_1spp_oidn.png, cycles_reference.png and sheet.png
+   (side by side, each titled with its PSNR and seconds), and print each image's seconds and PSNR against the
+   reference.
 
 Pieces that are missing (no torch, no shipped model) are skipped; the summary's ``missing`` list and stderr
 say what was not done and why.
@@ -26,8 +29,11 @@ import numpy as np
 from ...model import cliargs
 from ...model.errors import UserError
 
-PNG_NAMES = {"eevee": "eevee_direct.png", "ssgi": "ssgi.png", "ref": "cycles_reference.png"}
-TITLES = {"eevee": "EEVEE direct light", "ssgi": "SSGI (EEVEE + learned GI)", "ref": "Cycles reference"}
+PNG_NAMES = {"eevee_gi": "eevee_gi.png", "ssgi": "ssgi.png", "cycles_1spp_oidn": "cycles_1spp_oidn.png",
+             "ref": "cycles_reference.png"}
+TITLES = {"eevee_gi": "EEVEE GI", "ssgi": "SSGI", "cycles_1spp_oidn": "Cycles 1 spp + OIDN", "ref": "Cycles reference"}
+COMPARED = ("eevee_gi", "ssgi", "cycles_1spp_oidn")  # scored against the reference, in the sheet's order
+LADDER_SEED = 7919  # Cycles seed of the 1-sample render: not the reference's (the room seed)
 
 
 @dataclass
@@ -36,7 +42,7 @@ class DemoConfig:
     out: str = "out/demo"  # output folder
     seed: int = 7  # room seed
     size: tuple[int, int] = (240, 135)  # render size (the training size)
-    samples: int = 1  # EEVEE samples for the passes
+    samples: int = 1  # EEVEE samples of the SSGI passes and of EEVEE's own GI render
     ref_samples: int = 128  # Cycles samples for the reference; 0 skips it
     denoise: bool = True  # denoise the Cycles reference with OpenImageDenoise
     model: str | None = None  # model checkpoint (None: the shipped models/ssgi_default.pt)
@@ -85,8 +91,8 @@ def labelled_sheet(images: list[tuple[str, np.ndarray]], strip: int = 18) -> np.
     return np.concatenate(row, axis=1)
 
 
-def _ssgi_render(scene, model: Path, samples: int, times: dict):
-    """Render through the SSGI node; returns (prediction HxWx3, eevee HxWx3)."""
+def _ssgi_render(scene, model: Path, samples: int, times: dict) -> np.ndarray:
+    """Render through the SSGI node; returns the frame the node shows (HxWx3 linear)."""
     from ..blender.compositor import setup_scene
     from . import render
 
@@ -95,12 +101,21 @@ def _ssgi_render(scene, model: Path, samples: int, times: dict):
                                    samples=samples)
     t = time.perf_counter()
     session.run()
-    times["ssgi_total"] = round(time.perf_counter() - t, 3)
+    times["ssgi"] = round(time.perf_counter() - t, 3)
     info = session.results[0]
     for k in ("t_passes", "t_predict", "t_composite"):
         times["ssgi_" + k[2:]] = round(info[k], 3)
-    groups = info["groups"]
-    return np.asarray(info["prediction"], np.float32)[..., :3], np.asarray(groups["eevee"], np.float32)[..., :3]
+    return np.asarray(info["prediction"], np.float32)[..., :3]
+
+
+def _title(key: str, psnr: float | None, seconds: float | None) -> str:
+    """A sheet tile's title: the image's name, its PSNR against the reference and its render seconds."""
+    parts = [TITLES[key]]
+    if psnr is not None and math.isfinite(psnr):
+        parts.append(f"{psnr:.2f} dB")
+    if seconds is not None:
+        parts.append(f"{seconds:.1f} s")
+    return "  ".join(parts)
 
 
 def run(cfg: DemoConfig) -> dict:
@@ -109,7 +124,9 @@ def run(cfg: DemoConfig) -> dict:
     import bpy
 
     from ..blender import node, passes, room
+    from ..blender.scene_state import preserved
     from ..runtime import deps
+    from .report_run import render_eevee_gi
 
     cfg.check()
     out = Path(cfg.out)
@@ -141,31 +158,36 @@ def run(cfg: DemoConfig) -> dict:
     imgs: dict[str, np.ndarray] = {}
     if (torch_ok or ort_ok) and model.is_file():
         log(f"rendering with SSGI at {w}x{h} (model {model.name})")
-        imgs["ssgi"], imgs["eevee"] = _ssgi_render(scene, model, cfg.samples, times)
-    if "eevee" not in imgs:
-        log(f"rendering EEVEE direct light at {w}x{h} (no SSGI prediction: see the list at the end)")
-        g = _timed(times, "eevee", passes.render_gbuffer, scene, ("eevee",), samples=cfg.samples)
-        imgs["eevee"] = np.asarray(g["eevee"], np.float32)[..., :3]
+        imgs["ssgi"] = _ssgi_render(scene, model, cfg.samples, times)
+    log(f"rendering EEVEE with ray tracing and fast GI ({cfg.samples} sample{'s' * (cfg.samples != 1)})")
+    with preserved(scene):
+        imgs["eevee_gi"] = _timed(times, "eevee_gi", render_eevee_gi, scene, "default", cfg.samples)
+    log("rendering Cycles 1 sample + OpenImageDenoise")
+    with preserved(scene):
+        imgs["cycles_1spp_oidn"] = _timed(times, "cycles_1spp_oidn", passes.render_cycles, scene, 1,
+                                          seed=LADDER_SEED, denoise=True)["ref"][..., :3]
     if cfg.ref_samples > 0:
         log(f"rendering the Cycles reference ({cfg.ref_samples} samples{', denoised' if cfg.denoise else ''})")
-        ref = _timed(times, "cycles", passes.render_cycles, scene, cfg.ref_samples, seed=cfg.seed,
-                     denoise=cfg.denoise)
+        with preserved(scene):
+            ref = _timed(times, "cycles", passes.render_cycles, scene, cfg.ref_samples, seed=cfg.seed,
+                         denoise=cfg.denoise)
         imgs["ref"] = np.asarray(ref["ref"], np.float32)[..., :3]
     else:
-        missing.append("the Cycles reference (skipped: --ref-samples 0)")
+        missing.append("the Cycles reference and the PSNRs (skipped: --ref-samples 0)")
+    imgs = {k: np.asarray(v, np.float32) for k, v in imgs.items()}
 
     from ...model import metrics
     from ...model.images import srgb8, write_png
     if "ref" in imgs:
-        for k in ("eevee", "ssgi"):
+        for k in COMPARED:
             if k in imgs:
                 summary["psnr_db"][k] = round(float(metrics.psnr(imgs[k], imgs["ref"])), 3)
     for k, name in PNG_NAMES.items():
         if k in imgs:
             write_png(out / name, srgb8(imgs[k], cfg.exposure))
             summary["files"][k] = str(out / name)
-    sheet = [(TITLES[k] + (f"  {summary['psnr_db'][k]:.2f} dB" if k in summary["psnr_db"] else ""), srgb8(imgs[k], cfg.exposure))
-             for k in ("eevee", "ssgi", "ref") if k in imgs]
+    sheet = [(_title(k, summary["psnr_db"].get(k), times.get("cycles" if k == "ref" else k)),
+              srgb8(imgs[k], cfg.exposure)) for k in (*COMPARED, "ref") if k in imgs]
     write_png(out / "sheet.png", labelled_sheet(sheet))
     summary["files"]["sheet"] = str(out / "sheet.png")
     times["total"] = round(time.perf_counter() - t_start, 3)
@@ -173,7 +195,8 @@ def run(cfg: DemoConfig) -> dict:
     for k, v in times.items():
         log(f"time {k}: {v:.2f} s")
     for k, v in summary["psnr_db"].items():
-        log(f"PSNR {TITLES[k]} vs Cycles: {v:.2f} dB" if math.isfinite(v) else f"PSNR {TITLES[k]}: identical")
+        log(f"PSNR {TITLES[k]} vs the reference: {v:.2f} dB in {times[k]:.2f} s" if math.isfinite(v)
+            else f"PSNR {TITLES[k]}: identical to the reference")
     for m in missing:
         log("not done: " + m)
     log(f"wrote {', '.join(Path(f).name for f in summary['files'].values())} into {out}")

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,39 +27,46 @@ def _png(path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB"))
 
 
-@pytest.fixture(scope="module")
-def untrained_model(tmp_path_factory):
-    """A real SSGI checkpoint with untrained weights: proves the SSGI path runs, says nothing of quality."""
-    path = tmp_path_factory.mktemp("model") / "untrained.pt"
-    run_py(f'''
-from ssgi.model.learn import checkpoint, network
-import torch
-torch.manual_seed(0)
-net = network.build(network.arch_for("fssgi"))
-ck = checkpoint.make(net, "network", command="test_demo")
-checkpoint.save({str(path)!r}, ck)
-''')
-    return path
+SHIPPED = {"default": None, "one_render": ROOT / "models" / "ssgi_one_render.pt"}  # None: the demo's own default
+TIMES = ("room", "setup", "ssgi", "ssgi_passes", "ssgi_predict", "ssgi_composite", "eevee_gi", "cycles_1spp_oidn",
+         "cycles", "total")
 
 
-def test_demo_with_a_model_writes_all_pngs_and_psnr(tmp_path, untrained_model):
+@pytest.mark.parametrize("which", list(SHIPPED))
+def test_demo_with_each_shipped_model_writes_every_png_and_scores_each_image(tmp_path, which):
+    """What `make demo` runs, with the model a user gets (no --model for the default): the SSGI frame the node
+    shows, EEVEE's own GI and Cycles 1 spp + OIDN, each scored against the reference."""
     out = tmp_path / "demo"
-    p = run_cli("demo", "--out", str(out), "--model", str(untrained_model), *TINY, "--json", timeout=600)
+    model = ("--model", str(SHIPPED[which])) if SHIPPED[which] else ()
+    tiny = ("--size", "64x36", "--ref-samples", "16", "--seed", "3")
+    p = run_cli("demo", "--out", str(out), *model, *tiny, "--json", timeout=600)
     d = json.loads(p.stdout)
     if NOT_YET:
         return _check_not_yet(d)
     assert d["ok"] is True and d["missing"] == [], d
-    assert set(d["files"]) == {"eevee", "ssgi", "ref", "sheet"}
-    for k in ("eevee", "ssgi", "ref"):
-        im = _png(d["files"][k])
+    assert Path(d["model"]).name == f"ssgi_{which}.pt", d["model"]
+    assert set(d["files"]) == {"eevee_gi", "ssgi", "cycles_1spp_oidn", "ref", "sheet"}
+    ims = {k: _png(d["files"][k]) for k in ("eevee_gi", "ssgi", "cycles_1spp_oidn", "ref")}
+    for k, im in ims.items():
         assert im.shape == (36, 64, 3), (k, im.shape)
-        assert im.std() > 0, k  # a lit room, not a blank frame
+        assert im.std() > 2, k  # a lit room, not a blank frame
+    # the SSGI frame is an image of the room: nearer the reference than a blank or uniform grey frame would be
+    ref = ims["ref"].astype(float)
+    err = np.abs(ims["ssgi"].astype(float) - ref).mean()
+    assert err < np.abs(ref - ref.mean()).mean(), err
     sheet = _png(d["files"]["sheet"])
-    assert sheet.shape[1] == 3 * 64 + 2 * 4 and sheet.shape[0] > 36
-    assert set(d["psnr_db"]) == {"eevee", "ssgi"} and all(np.isfinite(v) for v in d["psnr_db"].values())
-    for k in ("room", "ssgi_passes", "ssgi_predict", "cycles", "total"):
-        assert d["times_s"][k] >= 0, k
-    assert "PSNR" in p.stderr and "time total" in p.stderr  # progress and numbers go to stderr
+    assert sheet.shape[1] == 4 * 64 + 3 * 4 and sheet.shape[0] > 36
+    assert set(d["psnr_db"]) == {"eevee_gi", "ssgi", "cycles_1spp_oidn"}
+    for k, v in d["psnr_db"].items():  # an image of this room against its reference: 10-60 dB, not inf or nan
+        assert 10 < v < 60, (k, v)
+    for k in TIMES:
+        assert d["times_s"][k] > 0, k
+    t = d["times_s"]
+    assert t["total"] >= t["ssgi"] + t["eevee_gi"] + t["cycles_1spp_oidn"] + t["cycles"]
+    assert t["ssgi"] >= t["ssgi_passes"] + t["ssgi_predict"]
+    for k in ("EEVEE GI", "SSGI", "Cycles 1 spp + OIDN"):  # each image's PSNR and seconds on stderr
+        assert f"PSNR {k} vs the reference" in p.stderr, k
+    assert "time total" in p.stderr
 
 
 def test_demo_without_torch_or_an_onnx_export_does_the_rest_and_says_what_is_missing(tmp_path, no_torch_env):
@@ -71,11 +79,11 @@ def test_demo_without_torch_or_an_onnx_export_does_the_rest_and_says_what_is_mis
     assert any(m.startswith("PyTorch") and "ImportError" in m and "ONNX" in m for m in d["missing"]), d["missing"]
     if NOT_YET:
         return _check_not_yet(d)
-    assert set(d["files"]) == {"eevee", "ref", "sheet"}
+    assert set(d["files"]) == {"eevee_gi", "cycles_1spp_oidn", "ref", "sheet"}
     assert not (out / "ssgi.png").exists()
-    eevee, ref = _png(d["files"]["eevee"]), _png(d["files"]["ref"])
+    eevee, ref = _png(d["files"]["eevee_gi"]), _png(d["files"]["ref"])
     assert eevee.shape == ref.shape == (36, 64, 3)
-    assert set(d["psnr_db"]) == {"eevee"}
+    assert set(d["psnr_db"]) == {"eevee_gi", "cycles_1spp_oidn"}
     assert "not done" in p.stderr
 
 
