@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
-"""The GPU check of issue 17, prepared for a machine with a GPU; on one without, it runs on the CPU and says so.
+"""Prediction speed and parity on a GPU, prepared for a machine with one; on one without, it runs on the CPU and says so.
 
     .venv/bin/python benchmarks/gpu_infer.py [--model models/ssgi_default.pt] [--size 1920x1080] [--repeats 5]
 
 Predicts the same synthetic HDR frame (export.hdr_groups) with: torch on the CPU (fp32, the reference), torch
 on CUDA in fp32 and fp16, onnxruntime on the CPU and onnxruntime with the CUDA execution provider (needs the
 ``onnxruntime-gpu`` build; the CPU build falls back to the CPU, which the output names). For each: the device it
-really ran on, the first call (warm-up: cuDNN autotuning, session start), the median of the repeats, and the
-largest relative difference from the CPU reference (export.rel_diff). One JSON object on stdout; never fails for
+really ran on, the first call (warm-up: cuDNN autotuning, the runtime's start), the median of the repeats, and the
+largest relative difference from the CPU reference (export.rel_diff) and the largest difference over float32's
+rounding bound (export.bound_ratio, <= 1: rounding alone; fp16 and TF32 runs exceed it by design). One JSON object on stdout; never fails for
 want of a GPU (``cuda_available`` false, every device "cpu").
 """
 from __future__ import annotations
@@ -56,7 +57,7 @@ def main(argv=None) -> int:
         res["onnxruntime"] = f"not importable: {e}"
     ref_pred = predictor.load_predictor(a.model, num_threads=a.threads, runtime="torch", precision="fp32", device="cpu")
     res["runs"]["torch cpu fp32"], ref = timed(ref_pred, g, max(1, a.repeats // 2))
-    res["runs"]["torch cpu fp32"].update(device="cpu", max_rel_vs_cpu=0.0)
+    res["runs"]["torch cpu fp32"].update(device="cpu", max_rel_vs_cpu=0.0, max_ratio_vs_cpu=0.0)
     todo = [("torch cuda fp32", dict(runtime="torch", device="cuda", precision="fp32")),
             ("torch cuda fp16", dict(runtime="torch", device="cuda", precision="fp16")),
             ("onnxruntime cpu", dict(runtime="onnx", device="cpu")),
@@ -66,6 +67,7 @@ def main(argv=None) -> int:
             pred = predictor.load_predictor(a.model, num_threads=a.threads, **kw)
             r, out = timed(pred, g, a.repeats)
             r.update(device=pred.device, precision=getattr(pred, "precision", None), max_rel_vs_cpu=export.rel_diff(out, ref),
+                     max_ratio_vs_cpu=export.bound_ratio(ref_pred, g, ref, out),
                      note=getattr(pred, "device_note", "") or None)
             if kw["runtime"] == "onnx":
                 r["providers"] = pred.sess.get_providers()

@@ -1,4 +1,4 @@
-"""Rendering without torch (issue 17): the built zip, installed into a fresh Blender user folder with torch
+"""Rendering without torch: the built zip, installed into a fresh Blender user folder with torch
 hidden (a meta-path blocker: ``import torch`` fails in that process) and the venv's own onnxruntime hidden (only
 the wheel the zip bundles can be imported), renders a tiny scene through the SSGI node with the shipped model's
 ONNX export; the frame equals what torch predicts from that render's own passes. And the command line without
@@ -72,7 +72,7 @@ def test_zip_installed_without_torch_renders_through_the_node_with_the_bundled_o
     g = exrio.read_sample(tmp_path / "passes" / "000002.exr", pred.required + ("depth", "normal", "rest"), strict=False)
     expected = np.maximum(pred.predict(g) + g["rest"][..., :3], 0)
     assert frame.shape == (36, 64, 4) and np.isfinite(frame).all()
-    assert export.rel_diff(frame[..., :3], expected) <= 1e-4
+    assert export.bound_ratio(pred, g, expected, frame[..., :3], added=g["rest"]) <= 1.0
     geo = g["depth"][..., 0] < 0.999 * rep["clip_end"]
     assert geo.mean() > 0.3 and np.abs(frame[..., :3] - g["rest"][..., :3])[geo].mean() > 1e-3  # a prediction was added
     magenta = np.array([1.0, 0.0, 1.0])
@@ -95,7 +95,7 @@ def test_cli_without_torch_predicts_with_the_export_and_says_what_needs_torch(tm
     planes = exrio.read_exr(out)[0]
     got = np.stack([planes[c] for c in "RGB"], -1)
     ref = torch_pred.predict(exrio.read_sample(sample, torch_pred.required))
-    assert export.rel_diff(got, ref) <= 1e-4
+    assert export.bound_ratio(torch_pred, exrio.read_sample(sample, torch_pred.required), ref, got) <= 1.0
     # a checkpoint without an export cannot run without torch: one line that says what to do
     lone = tmp_path / "lone.pt"
     lone.write_bytes(SHIPPED.read_bytes())

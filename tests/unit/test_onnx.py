@@ -20,7 +20,7 @@ from ssgi.model.learn import checkpoint, network
 from ..conftest import ROOT
 
 SHIPPED = ROOT / "models" / "ssgi_default.pt"
-# the one-render model (issue 15, session 29): one GI-off EEVEE render, the sky group
+# the one-render model: one GI-off EEVEE render, the sky group
 SHIPPED_ONE = ROOT / "models" / "ssgi_one_render.pt"
 SIZES = ((1, 1, None), (7, 5, None), (64, 36, None), (203, 131, 96), (33, 301, 64))  # width, height, tile
 
@@ -46,7 +46,7 @@ def models(tmp_path_factory):
 
 
 @pytest.mark.parametrize("name", ["shipped", "shipped_one_render", "fssgi", "unet", "linear"])
-def test_onnx_equals_torch_within_1e4_relative_on_hdr_inputs_tiled_and_untiled(models, name):
+def test_onnx_equals_torch_within_float32_rounding_on_hdr_inputs_tiled_and_untiled(models, name):
     pt = models[name]
     a = predictor.load_predictor(pt, runtime="torch", precision="fp32", device="cpu")
     b = predictor.load_predictor(pt, runtime="onnx")
@@ -61,14 +61,26 @@ def test_onnx_equals_torch_within_1e4_relative_on_hdr_inputs_tiled_and_untiled(m
 
         ya, yb = image(a, tile), image(b, tile)
         assert yb.shape == (h, w, 3) and yb.dtype == np.float32 and np.isfinite(yb).all()
-        assert export.rel_diff(yb, ya) <= 1e-4, (name, w, h, tile)
+        added = g["eevee_combined"] if a.target == ch.COMBINED_TARGET else None
+        assert export.bound_ratio(a, g, ya, yb, tile, added) <= 1.0, (name, w, h, tile)
         assert float(ya.max()) > 0 or w * h < 100
-        if tile:  # the tiles' kept cores equal the untiled result in onnxruntime as in torch
-            assert export.rel_diff(image(b, None), yb) <= 1e-5
+        if tile:  # the tiles' kept cores equal the untiled result in onnxruntime as in torch (up to the rounding of
+            # another summation order: a GEMM's blocking follows the image's width)
+            assert export.bound_ratio(a, g, image(b, None), yb, tile, added) <= 1.0
     # the comparison bites: a different network is far off
     other = predictor.load_predictor(models["fssgi" if name != "fssgi" else "unet"], runtime="onnx")
     if other.inputs == b.inputs:
         assert export.rel_diff(other.predict(g), yb) > 1e-2
+
+
+def _graph(path: Path) -> tuple[list, dict, dict]:
+    """What an export holds that no CPU's kernels change: the nodes (op, inputs, outputs, attributes), the weights
+    (bit for bit) and the metadata."""
+    from onnx import numpy_helper
+    m = onnx.load(str(path))
+    nodes = [(n.op_type, list(n.input), list(n.output), sorted(str(a) for a in n.attribute)) for n in m.graph.node]
+    weights = {t.name: numpy_helper.to_array(t) for t in m.graph.initializer}
+    return nodes, weights, {p.key: p.value for p in m.metadata_props}
 
 
 @pytest.mark.parametrize("pt", [SHIPPED, SHIPPED_ONE], ids=["default", "one_render"])
@@ -80,9 +92,55 @@ def test_shipped_onnx_is_the_reproducible_export_of_the_shipped_checkpoint(tmp_p
     for k in ("inputs", "channel_spec", "arch", "best", "history", "command", "dataset", "normalization"):
         assert meta[k] == json.loads(json.dumps(ck[k], default=str)), k
     again = tmp_path / "again.onnx"
-    res = export.export(pt, again, command=meta["export_command"])
-    assert again.read_bytes() == shipped.read_bytes(), "re-export differs: run the export_command in its metadata"
-    assert res["parity"]["max_rel"] <= export.PARITY_RTOL
+    res = export.export(pt, again, command=meta["export_command"])  # what `cli.py export` runs, its check included
+    nodes, weights, meta_again = _graph(again)
+    nodes0, weights0, meta0 = _graph(shipped)
+    assert nodes == nodes0, "the re-export's graph differs: run the export_command in its metadata"
+    assert weights.keys() == weights0.keys() and all(np.array_equal(weights[k], weights0[k]) for k in weights)
+    assert meta_again == meta0
+    assert res["parity"]["max_ratio"] <= 1.0
+
+
+@pytest.mark.parametrize("pt", [SHIPPED, SHIPPED_ONE], ids=["default", "one_render"])
+def test_export_refuses_a_graph_with_one_weight_changed_by_one_percent(tmp_path, pt, monkeypatch):
+    """The parity check bites: the torch side of the check gets the output convolution's first weight x 1.01
+    (a change of the network, not of rounding) and the export is refused, its file removed."""
+    class Changed(predictor.Predictor):
+        def __init__(self, net, *a, **kw):
+            import copy
+            net = copy.deepcopy(net)
+            last = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+            with torch.no_grad():
+                last.weight.view(-1)[0] *= 1.01
+            super().__init__(net, *a, **kw)
+
+    monkeypatch.setattr(predictor, "Predictor", Changed)
+    out = tmp_path / "changed.onnx"
+    with pytest.raises(UserError, match=r"changed\.onnx: the ONNX graph differs from the checkpoint by more than "
+                                        r"float32 rounding explains .*not written"):
+        export.export(pt, out, command="test")
+    assert not out.exists()
+
+
+def test_parity_tolerance_holds_across_torch_kernels_where_a_relative_one_fails():
+    """Other summation orders (torch without oneDNN on one thread; channels-last memory) stay within the rounding
+    bound for both shipped models, as another CPU's kernels must."""
+    for pt in (SHIPPED, SHIPPED_ONE):
+        a = predictor.load_predictor(pt, runtime="torch", precision="fp32", device="cpu")
+        g = export.hdr_groups(96, 64, seed=5)
+        added = g["eevee_combined"] if a.target == ch.COMBINED_TARGET else None
+        ya = a.predict(g)
+        threads = torch.get_num_threads()
+        try:
+            torch.backends.mkldnn.enabled = False
+            torch.set_num_threads(1)
+            yb = a.predict(g)
+        finally:
+            torch.backends.mkldnn.enabled = True
+            torch.set_num_threads(threads)
+        yc = predictor.load_predictor(pt, runtime="torch", precision="fp32-cl", device="cpu").predict(g)
+        for y in (yb, yc):
+            assert export.bound_ratio(a, g, ya, y, None, added) <= 1.0, pt.name
 
 
 def test_auto_runtime_takes_the_matching_export_and_never_a_stale_one(models, tmp_path):
@@ -111,7 +169,7 @@ def test_a_gpu_asked_for_and_absent_runs_on_the_cpu(models):
             assert t.device == "cpu" and o.device == "cpu"
             assert ort_backend.providers(dev)[-1] == "CPUExecutionProvider"
             np.testing.assert_array_equal(t.predict(g), ref)
-            assert export.rel_diff(o.predict(g), ref) <= 1e-4
+            assert export.bound_ratio(t, g, ref, o.predict(g)) <= 1.0
         if dev != "auto" and t.device == "cpu":
             assert dev.upper() in t.device_note.upper() and "CPU" in t.device_note
     with pytest.raises(UserError, match="precision on cpu must be one of"):
@@ -132,7 +190,7 @@ def test_gpu_script_runs_on_the_cpu_without_a_gpu_and_reports_parity():
     assert set(d["runs"]) == {"torch cpu fp32", "torch cuda fp32", "torch cuda fp16", "onnxruntime cpu", "onnxruntime cuda"}
     for name, r in d["runs"].items():
         assert "error" not in r, (name, r)
-        assert r["max_rel_vs_cpu"] <= 1e-4 and r["median_ms"] > 0, (name, r)
+        assert r["max_ratio_vs_cpu"] <= 1.0 and r["median_ms"] > 0, (name, r)
         if not d["cuda_available"]:
             assert r["device"] == "cpu", (name, r)
 
