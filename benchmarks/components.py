@@ -1,4 +1,4 @@
-"""Benchmark (issue 14, item 1): what each image component costs EEVEE against Cycles, on the artist test set.
+"""Benchmark: what each image component costs EEVEE against Cycles, on the artist test set.
 
 For each artist scene (benchmarks/artist_scenes.py) it renders
 - Cycles at --spp + OIDN: the whole image ``ref`` and its diffuse part ``ref_diffuse`` (Diffuse Color x

@@ -1,4 +1,4 @@
-"""Benchmark (issue 15, session 23): what the GI-off one render's emitter proxies on every side of a planar emitter
+"""Benchmark: what the GI-off one render's emitter proxies on every side of a planar emitter
 give its inputs that the proxies on the open sides only (``direct_light.open_sides``, ``passes.PROXY_SIDES_LOCAL``)
 do not: the one render of a local one-render model (``passes.render_gbuffer``: eevee_local, rest, Combined) made
 both ways, compared pixel by pixel, with a figure (Combined both sides | open sides | |eevee_local difference| x5,

@@ -52,7 +52,7 @@ def sample(w: int, h: int, seed: int, scene_seed: int) -> dict[str, np.ndarray]:
 
 
 def with_emission(g: dict, seed: int) -> dict:
-    """A sample of the issue-14 format: an emissive patch (``emission``, zero albedo there), the diffuse part of
+    """A sample of the diffuse-part format: an emissive patch (``emission``, zero albedo there), the diffuse part of
     the reference (``ref_diffuse``) and the whole reference = diffuse part + emission."""
     g = dict(g)
     h, w = g["albedo"].shape[:2]

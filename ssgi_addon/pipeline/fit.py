@@ -9,7 +9,7 @@
 3. ``views.split_views`` holds out views by camera; ``model.learn.fit.fit`` searches the size, drops inputs and
    writes MODEL and its report (bpy-free).
 
-A shot (``frames=(A, B)``, ``cli.py fit --frames A-B``; issue 16): the views are baked at frames of A..B away
+A shot (``frames=(A, B)``, ``cli.py fit --frames A-B``): the views are baked at frames of A..B away
 from ``views.N_WITHHELD`` withheld frames (ssgi_addon/blender/views.py), and after the fit
 ``render_withheld`` renders those frames as the node does (``RenderSession`` with the fitted model, at the
 views' size and the file's EEVEE samples; the generic model on the same passes through the same working-
@@ -55,7 +55,7 @@ REFLMAP_MAX_S = 60.0
 # a second starting checkpoint for shot fits (the model shipped before the current one, commit b52fc1b; its
 # metadata beside it): on the room shot it fine-tunes to 28.16 dB val (withheld frames 32.88 dB) where the shipped
 # model reaches 25.87 (28.68), the same 5 minutes on the same views; on the living room the two are level
-# (docs/fit_shot.md, session 17). A shot fit probes both and goes on with the better on the val views.
+# (docs/fit_shot.md). A shot fit probes both and goes on with the better on the val views.
 FIT_START_MODEL = Path(__file__).resolve().parents[2] / "models" / "ssgi_fit_start.pt"
 
 
@@ -82,12 +82,12 @@ ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_local,glow,surround"
 ONE_RENDER_HEAD = "residual_local"
 # ... of each kind (--one-render KIND): "local" reads the render's Diffuse Direct pass (eevee_local) and is composed
 # with its rest; "combined" reads its Combined image instead (eevee_combined: no Diffuse Direct pass in the frame's
-# render, session 26), learns target ref_combined with head residual_combined and is composed as that image + its
+# render), learns target ref_combined with head residual_combined and is composed as that image + its
 # prediction. {kind: (inputs, head, target: None = the views' default ref_diffuse)}
 ONE_RENDER_FITS: dict[str, tuple[str, str, str | None]] = {
     "local": (ONE_RENDER_INPUTS, ONE_RENDER_HEAD, None),
     "combined": ("albedo,normal,depth,emission,eevee_combined,glow,surround", "residual_combined", ch.COMBINED_TARGET)}
-# the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined since session 27
+# the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined
 # (withheld frames of three shots, docs/one_render.md, with the lightmap on edges: room 37.56 against local 36.56 dB,
 # Cornell 39.16 against 38.54, living room 36.50 against 29.16; and its frames render one pass fewer)
 ONE_RENDER_DEFAULT = "combined"
@@ -152,7 +152,7 @@ class FitSceneConfig:
     # ... and a reflection map (model/infer/reflmap.py) when its views show glossy surfaces: the views then hold
     # EEVEE's rest and Glossy Color at the node's settings (off: --no-reflmap)
     reflmap: bool = True
-    # a GI-off one-render model (issue 15, docs/one_render.md): the views hold only what one EEVEE render with ray
+    # a GI-off one-render model (docs/one_render.md): the views hold only what one EEVEE render with ray
     # tracing and fast GI off gives (eevee_local, albedo, normal, depth, emission, rest, gloss; passes.ONE_RENDER_MODES),
     # scratch networks learn from it, and each frame of the node is that one render. A kind (ONE_RENDER_FITS; True:
     # ONE_RENDER_DEFAULT): "combined" reads that render's Combined image (head residual_combined), so the node's frames

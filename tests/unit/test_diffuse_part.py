@@ -1,4 +1,4 @@
-"""Issue 14 (bpy-free): the diffuse-part target, the composition, the emission inputs, the room mode in a
+"""The diffuse-part target (bpy-free), the composition, the emission inputs, the room mode in a
 dataset's identity."""
 from __future__ import annotations
 

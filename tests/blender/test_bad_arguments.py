@@ -1,4 +1,4 @@
-"""Bugs of issue 13 on real Blender: `bake --ref-samples` below what the reference target needs is refused in
+"""Bad arguments on real Blender: `bake --ref-samples` below what the reference target needs is refused in
 one line (no traceback, nothing written); `render --out` with a known image extension writes that format
 (as Blender's -F), and a file without the SSGI node is told about --setup. Renders are 16x9, 1 EEVEE sample."""
 from __future__ import annotations

@@ -1,7 +1,7 @@
-"""Bugs of issue 13 that show without Blender: a model argument that is not a model says what the file is
+"""Bad arguments and files that show without Blender: a model argument that is not a model says what the file is
 (never torch's advice to load it unsafely), `cli.py bench` checks its files before it times anything, and
 `make setup` hides pip's noise but not its news.
-The Blender-side ones (bake --ref-samples, render --out formats and --setup) are tests/blender/test_bugs_13.py."""
+The Blender-side ones (bake --ref-samples, render --out formats and --setup) are tests/blender/test_bad_arguments.py."""
 from __future__ import annotations
 
 import argparse
