@@ -9,7 +9,7 @@ render at 1 sample (it also takes the shader compile out of the timings) is comp
 (the dataset stores half floats, so the render is rounded to half first).
 
     .venv/bin/python benchmarks/gbuffer_samples.py --data data/rooms3 --model models/ssgi_default.pt \\
-        --rooms 8 --samples 1 4 16 --png docs/gbuffer_samples.png
+        --rooms 8 --samples 1 4 16 --png out/gbuffer_samples.png
 
 One JSON line per room and sample count on stdout (``"S": "stored"``: the model on the stored G-buffer), then
 a ``"summary"`` line; a readable summary on stderr.

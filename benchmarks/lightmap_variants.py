@@ -1,5 +1,5 @@
 """Which shot lightmap, and how much of it: lightmap variants scored on a shot's withheld frames without Blender
-(docs/fit_shot.md).
+(docs/fit.md).
 
 Two steps:
 

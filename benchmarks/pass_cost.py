@@ -152,7 +152,7 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
     passes.set_resolution(scene, *size)
     row = dict(scene=name, size=f"{size[0]}x{size[1]}", samples=int(scene.eevee.taa_render_samples), variants={})
     # with repeats > 1 EEVEE GI and each variant's frame alternate, and the medians are kept: on a shared machine
-    # one render can take twice another's time (docs/pass_cost.md)
+    # one render can take twice another's time (docs/one_render.md)
     gi_times, plain_times, gi_cpu, plain_cpu, frames = [], [], [], [], {v: [] for v in variants}
     # where nothing casts a shadow SSGI's renders skip EEVEE's shadows (passes.SKIP_UNUSED_SHADOWS): the plain EEVEE GI
     # render is then also timed so, for a comparison at equal savings

@@ -5,7 +5,7 @@ both ways, compared pixel by pixel, with a figure (Combined both sides | open si
 the top rows where the difference is, 3x).
 
     .venv/bin/python benchmarks/proxy_sides.py --blend SHOTS/cornell_emissive.blend --frame 25 --size 480x270 \\
-        [--png docs/one_render/s23/cornell_proxy_sides_rim.png]
+        [--png out/proxy_sides_rim.png]
 
 Prints, per group: its mean, the largest and the mean absolute difference, the pixels that differ by more than
 1e-3 and the PSNR between the two (peak 1).

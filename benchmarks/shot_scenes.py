@@ -2,7 +2,7 @@
 ``cli.py fit --frames``, ``cli.py render`` and the temporal benchmark.
 
     .venv/bin/python benchmarks/shot_scenes.py --out DIR [--size 240x135] [--frames 48] [--names ripple room living_room]
-    .venv/bin/python benchmarks/shot_scenes.py --look docs/fit_shot [--size 160x90]   # EEVEE strips of 3 frames
+    .venv/bin/python benchmarks/shot_scenes.py --look out/shot_scenes [--size 160x90]   # EEVEE strips of 3 frames
 
 Scenes (``NAMES``), each animated over frames 1..N (N = ``--frames``, 48 by default):
 

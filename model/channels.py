@@ -190,7 +190,7 @@ INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "w
 # A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what
 # a prediction + rest must be to equal Cycles' image. A model that learns it is composed as a ref_diffuse model
 # (prediction + rest) and can also correct EEVEE's rest where it differs from Cycles' on surfaces with a diffuse
-# colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit_shot.md); where
+# colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit.md); where
 # the albedo is 0 (metal) its prediction stays 0 and EEVEE's rest stands. The per-shot fit's --learn-rest.
 # A fourth, "ref_combined" (GI-off one-render models without the Diffuse Direct pass): the whole Cycles
 # image, learned as EEVEE's GI-off Combined image (group eevee_combined) + albedo x the light it lacks (head

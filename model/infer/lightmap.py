@@ -1,7 +1,7 @@
 """A shot's lightmap: a small world-space field of diffuse light, fitted to one scene's views (bpy-free, numpy).
 
 The shot fit (`cli.py fit --frames`) learns a screen-space network from views of one scene. Its errors on
-frames it never saw are smooth biases over large surfaces (a wall a little too bright, docs/fit_shot.md), because a
+frames it never saw are smooth biases over large surfaces (a wall a little too bright, docs/fit.md), because a
 screen-space network only knows what the frame shows. Every view of a shot looks at the same walls, though: the
 diffuse light on a static surface is a function of where the surface is and which way it faces. The lightmap is
 that function, learned from the views (model/learn/lightmap.py): an MLP of the world position (Fourier features,

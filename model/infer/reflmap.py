@@ -2,7 +2,7 @@
 (bpy-free, numpy).
 
 A diffuse-part model's image is its prediction + EEVEE's rest (compose.py), so EEVEE's own reflections bound it. On
-the Cornell box shot they bound it at 33.8 dB (docs/fit_shot.md): EEVEE's mirror ball traces its
+the Cornell box shot they bound it at 33.8 dB (docs/fit.md): EEVEE's mirror ball traces its
 reflections in screen space, and what the ball reflects lies mostly off screen (the walls beside and behind the
 camera, the floor under the ball), where EEVEE falls back to the world (black); the ball held 71-96 % of the
 ceiling's squared error. Every view of a shot sees the same room, though: what a static mirror reflects is a

@@ -338,7 +338,7 @@ def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     sides; with ``sides`` "open" only for a side that faces open space, ``open_sides``: none for a side pressed
     against a surface), of the emitter's colour and power ``pi x strength x area`` (the power of a Lambertian surface of
     that radiance); its specular factor 1, so that glossy surfaces and mirrors show the panel's highlight as
-    Cycles does. Measured on the artist test set's Cornell box with its emissive panel (docs/fit_shot.md): the
+    Cycles does. Measured on the artist test set's Cornell box with its emissive panel (docs/fit.md): the
     ceiling of a diffuse-part model (Cycles' diffuse part + EEVEE's rest) rose from 29.4 to 34.5 dB on
     withheld frames. Yields the proxy objects."""
     import math

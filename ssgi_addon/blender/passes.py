@@ -9,7 +9,7 @@ Contract (used by the baker and the compositor node):
   (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
   afterwards, and returns the groups top row first with normals in CAMERA space. Asked for ``rest`` at the
   same samples (the render path), it reads albedo, normal, depth and emission from that artist-settings render
-  (``SHARED_GROUPS``: bit-identical, docs/pass_cost.md); ``last_timings`` has each render's seconds. That
+  (``SHARED_GROUPS``: bit-identical, docs/one_render.md); ``last_timings`` has each render's seconds. That
   render writes no Emission pass where no used material can emit (``SKIP_EMPTY_EMISSION``: zeros, exact), and a
   one-render model's frame writes no Normal pass: its normals come from the Z pass (``NORMALS_FROM_DEPTH``).
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
@@ -588,7 +588,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     highlights and reflections the rest holds are lit by the same lamps as the predicted diffuse light. At the
     scene's own threshold (Blender's default 0.01) the artist test set's studio rendered 16 % darker (Combined
     mean 0.312 against 0.374; 95 % of the pixels differ by more than 0.01) and its gold sphere reflected a dim
-    floor (docs/artists.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
+    floor (docs/channels.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
     pass, EEVEE's own diffuse light) or ``eevee_local`` (the same pass, of a GI-off render). ``gi`` True / False
     switches ray tracing and fast GI on / off whatever the scene says (their other settings stay the artist's):
     the one-render models were trained on EEVEE's diffuse light with both on (``eevee_diffuse``) or both off
@@ -688,9 +688,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     ``rest`` is the artist's own render (``render_rest`` at ``rest_samples``, default the scene's), rendered
     last, so that the Render Result left behind is that render (render.py saves it for the artist's compositor
     tree). With ``merge`` and ``rest`` at the G-buffer's samples, the ``SHARED_GROUPS`` come from the rest
-    render (bit-identical; docs/pass_cost.md), and the direct-only render is made only for what is left
+    render (bit-identical; docs/one_render.md), and the direct-only render is made only for what is left
     (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``; 1 changes ``direct`` on edges
-    and was measured, not made the default: docs/pass_cost.md). ``last_timings`` holds each render's seconds,
+    and was measured, not made the default: docs/one_render.md). ``last_timings`` holds each render's seconds,
     ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
     from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
     for it, the SHARED_GROUPS (and the motion vectors) come from that render whatever the samples, so that a

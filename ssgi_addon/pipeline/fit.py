@@ -46,7 +46,7 @@ MIN_FIT_MINUTES = 0.5
 # fitted models' error (25-35 dB).
 FIT_REF_SAMPLES = 16
 # a shot's lightmap trains for this share of the training budget, at most LIGHTMAP_MAX_S (its loss flattens after
-# about 2 minutes on the benchmark shots, docs/fit_shot.md)
+# about 2 minutes on the benchmark shots, docs/fit.md)
 LIGHTMAP_SHARE = 0.2
 LIGHTMAP_MAX_S = 150.0
 # a shot's reflection map (model/infer/reflmap.py) trains for this share of the training budget, at most REFLMAP_MAX_S
@@ -55,7 +55,7 @@ REFLMAP_MAX_S = 60.0
 # a second starting checkpoint for shot fits (the model shipped before the current one, commit b52fc1b; its
 # metadata beside it): on the room shot it fine-tunes to 28.16 dB val (withheld frames 32.88 dB) where the shipped
 # model reaches 25.87 (28.68), the same 5 minutes on the same views; on the living room the two are level
-# (docs/fit_shot.md). A shot fit probes both and goes on with the better on the val views.
+# (docs/fit.md). A shot fit probes both and goes on with the better on the val views.
 FIT_START_MODEL = Path(__file__).resolve().parents[2] / "models" / "ssgi_fit_start.pt"
 
 
@@ -66,7 +66,7 @@ def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
     checkpoint (ladder ``[]``) towards the shot bar (``fit_report.SHOT_BAR_DB``) unless ``--ladder`` /
     ``--target-psnr`` say otherwise: on the room shot, same 21 baked views and ~10.7 min of training, the default
     ladder (three scratch networks and the fine-tune sharing half the budget, the fine-tune 42 s; a scratch network
-    kept) scored 31.41 dB on the withheld frames, the fine-tune alone (301 s) 32.72 dB (docs/fit_shot.md). Still scenes keep the ladder
+    kept) scored 31.41 dB on the withheld frames, the fine-tune alone (301 s) 32.72 dB (docs/fit.md). Still scenes keep the ladder
     (smaller scratch networks predict 2-4x faster there, docs/fit.md). ``(None, None)``: the model's defaults."""
     from ...model.evaluate.fit_report import SHOT_BAR_DB
     ladder, target = cfg.ladder, cfg.target_psnr
@@ -142,10 +142,10 @@ class FitSceneConfig:
     seed: int = 0
     frames: tuple[int, int] | None = None  # a shot A..B: withhold whole frames for the test (module doc)
     # learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: the fitted
-    # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit_shot.md, "Learning the rest")
+    # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit.md, "Learning the rest")
     learn_rest: bool = False
     # with learn_rest or a shot's reflection map: the samples of the views' rest (None: the scene's own EEVEE samples,
-    # as the node renders it; fewer make the bake cheaper, docs/fit_shot.md)
+    # as the node renders it; fewer make the bake cheaper, docs/fit.md)
     rest_samples: int | None = None
     # a shot fit also fits a lightmap (model/infer/lightmap.py) beside the model, when its views allow (off: --no-lightmap)
     lightmap: bool = True

@@ -309,7 +309,7 @@ def test_a_shot_fit_fine_tunes_the_starting_checkpoint_towards_the_shot_bar_unle
     assert shot_defaults(empty, "generic.pt", shot=False) == ([], None)  # an explicit [] is kept, not the default
 
 
-# ---- learning the rest (EEVEE's rest caps a diffuse-part fit, docs/fit_shot.md)
+# ---- learning the rest (EEVEE's rest caps a diffuse-part fit, docs/fit.md)
 
 def test_the_rest_target_is_cycles_minus_eevees_rest_and_composes_back_to_cycles():
     from ssgi.model.infer import compose
