@@ -1,4 +1,4 @@
-"""The artist test set (issue 14, item 5): five small artist-style scenes that no training room resembles, built
+"""The artist test set: five small artist-style scenes that no training room resembles, built
 by script (deterministic: no randomness) and saved as .blend files for ``cli.py report --scenes`` / ``cli.py bake
 --scenes`` (each file: one camera at frame 1, EEVEE with ray tracing + fast GI at 16 samples, view "Standard").
 
@@ -464,7 +464,7 @@ def agreement(names, size, spp: int) -> list[dict]:
 
 def main(argv=None) -> int:
     from ssgi.model.cliargs import parse_size
-    ap = argparse.ArgumentParser(description="Build the artist test set (issue 14) as .blend files, look at it, "
+    ap = argparse.ArgumentParser(description="Build the artist test set as .blend files, look at it, "
                                              "or measure its Cycles references' agreement.")
     ap.add_argument("--out", help="write OUT/<name>.blend for each scene")
     ap.add_argument("--size", type=parse_size, default=DEFAULT_SIZE, help="render size saved in the files (320x180)")

@@ -1,4 +1,4 @@
-"""Bad input (issue 14): what each scene setup that the SSGI path cannot handle does to the image, measured
+"""Bad input: what each scene setup that the SSGI path cannot handle does to the image, measured
 through the real render path (setup_scene + RenderSession, real EEVEE) on the tiny emissive/metal/glass/glossy
 scene (artist_scenes.tiny_material_scene) with a random diffuse-part model (unet_s, target ref_diffuse).
 

@@ -1,4 +1,4 @@
-"""Benchmark (issue 14, item 1): what each image component costs EEVEE against Cycles, on the artist test set.
+"""Benchmark: what each image component costs EEVEE against Cycles, on the artist test set.
 
 For each artist scene (benchmarks/artist_scenes.py) it renders
 - Cycles at --spp + OIDN: the whole image ``ref`` and its diffuse part ``ref_diffuse`` (Diffuse Color x
@@ -16,7 +16,7 @@ and scores (model/metrics.score, PSNR / SSIM / FLIP over the geometry pixels, as
 One PNG per scene in --out (images.srgb8): top row Cycles | EEVEE own | ceiling, bottom row Cycles' rest |
 EEVEE's rest | no_network; components.json beside them; a markdown table on stderr.
 
-    nice -n 10 .venv/bin/python benchmarks/components.py --out docs/components [--names studio ...] \\
+    nice -n 10 .venv/bin/python benchmarks/components.py --out out/components [--names studio ...] \\
         [--size 320x180] [--eevee-samples 16] [--spp 128]
 """
 from __future__ import annotations

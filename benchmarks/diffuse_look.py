@@ -1,4 +1,4 @@
-"""Benchmark (issue 14): the diffuse part each model predicts on a dataset folder, beside Cycles' own.
+"""Benchmark: the diffuse part each model predicts on a dataset folder, beside Cycles' own.
 
 For each sample of --data (e.g. a report's 1-sample bake of the artist test set, REPORT/data) and each --models
 checkpoint: the network's prediction of the diffuse part (Predictor.predict, as the node runs it, from the sample's
@@ -6,7 +6,7 @@ stored groups) against the sample's ``ref_diffuse``: PSNR over the geometry pixe
 reference (brightness). With --out, a PNG sheet: one row a sample, Cycles' diffuse part then each model's
 (images.srgb8).
 
-    .venv/bin/python benchmarks/diffuse_look.py --data /work/reports/artist19/data --models OLD.pt NEW.pt --out sheet.png
+    .venv/bin/python benchmarks/diffuse_look.py --data out/reports/artist/data --models OLD.pt NEW.pt --out sheet.png
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
-"""Benchmark: the input test over many closed rooms (issue 3). EEVEE's 1-sample Diffuse Direct pass against
+"""Benchmark: the input test over many closed rooms. EEVEE's 1-sample Diffuse Direct pass against
 Cycles' Diffuse Direct with the same hard lights and a black world, as EEVEE/Cycles over the lit pixels, with
 Cycles point-sampling its pixels (as the baker's comparison does, ``passes.render_cycles(hard=True)``) and,
-with ``--also-filtered``, with Cycles' default 1.5 px pixel filter too (how it was measured before session 4).
+with ``--also-filtered``, with Cycles' default 1.5 px pixel filter too (how EEVEE's anti-aliased pass compares with a filtered one).
 
     .venv/bin/python benchmarks/direct_agreement.py --rooms 51 0 3 2 4 6 7 8 11 13 15 17 21 --also-filtered
 """

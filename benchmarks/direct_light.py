@@ -1,4 +1,4 @@
-"""Benchmark: direct light inputs beyond the hard-shadow G-buffer (issue 14 items 2 and 4; docs/direct_light.md).
+"""Benchmark: direct light inputs beyond the hard-shadow G-buffer (docs/direct_light.md).
 
 ``soft``: EEVEE's Diffuse Direct with the lights at their real size (ssgi_addon/blender/direct_light.py
 render_soft_direct) at several TAA samples / shadow jitter / shadow ray and step counts, and the hard-shadow
@@ -9,8 +9,8 @@ bounces), PSNR (model/metrics.py) and seconds per render, one JSON line per room
 (room_scenes.emission_room) and on lamp-lit rooms: Cycles' Diffuse Direct at a few spp raw and OIDN-denoised,
 EEVEE with screen-space ray tracing on (world black), EEVEE's hard direct, and the emission pass alone.
 
-    .venv/bin/python benchmarks/direct_light.py soft --rooms 0 1 2 3 4 5 --out /tmp/dl/soft
-    .venv/bin/python benchmarks/direct_light.py emit --rooms 0 2 --out /tmp/dl/emit
+    .venv/bin/python benchmarks/direct_light.py soft --rooms 0 1 2 3 4 5 --out out/direct_light/soft
+    .venv/bin/python benchmarks/direct_light.py emit --rooms 0 2 --out out/direct_light/emit
 
 ``--out`` receives results.jsonl and, per room, an .npz of every image (for the figures: --png ROOM).
 """

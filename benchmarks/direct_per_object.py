@@ -2,7 +2,7 @@
 pixel filter at 1.5 px (its default) or 0.01 px (a point sample at the pixel centre, as EEVEE's 1 sample),
 and a PNG: EEVEE | Cycles | difference (red: EEVEE brighter, blue: darker).
 
-    .venv/bin/python benchmarks/direct_per_object.py --room 13 --filter 1.5 --png /tmp/room13.png
+    .venv/bin/python benchmarks/direct_per_object.py --room 13 --filter 1.5 --png out/room13.png
 """
 import argparse
 

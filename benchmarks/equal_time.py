@@ -1,4 +1,4 @@
-"""The equal-total-time comparison of issue 16, measured: a fitted shot rendered whole at 960x540 with SSGI, against
+"""The equal-total-time comparison, measured: a fitted shot rendered whole at 960x540 with SSGI, against
 Cycles + OIDN given the same total time, scored on the shot's withheld frames.
 
     .venv/bin/python benchmarks/equal_time.py --blend SHOT.blend --model SHOT.pt --fit-minutes M --out OUT \\

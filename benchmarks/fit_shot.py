@@ -1,4 +1,4 @@
-"""Fit a shot, scored on withheld frames (issue 16, item 3), and the equal-total-time comparison at 960x540.
+"""Fit a shot, scored on withheld frames, and the equal-total-time comparison at 960x540.
 
     .venv/bin/python benchmarks/fit_shot.py --out OUT [--shots living_room room] [--size 240x135] [--frames 48]
         [--views 24] [--minutes 15] [--threads 2] [--time-size 960x540] [--skip-fit]

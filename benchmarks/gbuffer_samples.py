@@ -8,8 +8,8 @@ seed's convention: linear RGB clamped to [0, 1], MSE pooled over the rooms). Fir
 render at 1 sample (it also takes the shader compile out of the timings) is compared with the stored G-buffer
 (the dataset stores half floats, so the render is rounded to half first).
 
-    .venv/bin/python benchmarks/gbuffer_samples.py --data /work/data/rooms3 --model models/ssgi_default.pt \\
-        --rooms 8 --samples 1 4 16 --png docs/gbuffer_samples.png
+    .venv/bin/python benchmarks/gbuffer_samples.py --data data/rooms3 --model models/ssgi_default.pt \\
+        --rooms 8 --samples 1 4 16 --png out/gbuffer_samples.png
 
 One JSON line per room and sample count on stdout (``"S": "stored"``: the model on the stored G-buffer), then
 a ``"summary"`` line; a readable summary on stderr.
@@ -33,7 +33,7 @@ from ssgi.ssgi_addon.blender import passes, room
 from ssgi.ssgi_addon.pipeline import report_scenes  # noqa: E402
 
 ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-ap.add_argument("--data", default="/work/data/rooms3", help="dataset folder (its stored references are the target)")
+ap.add_argument("--data", default="data/rooms3", help="dataset folder (its stored references are the target)")
 ap.add_argument("--model", default="models/ssgi_default.pt")
 ap.add_argument("--rooms", type=int, default=8, help="validation rooms to use")
 ap.add_argument("--open", type=int, default=3, help="how many of them have an open side (the rest are closed)")

@@ -9,7 +9,7 @@ same global batch; the numbers come from its checkpoint history (``minutes`` cou
 validation): samples/s over epochs 2.. (epoch 1 holds start-up, CUDA init and kernel autotuning), and samples
 per CPU second (rank 0's process CPU time, validation included, loader workers not, times the process count:
 the fairer number on a loaded machine); minutes to ``--target-psnr``: the first epoch whose validation PSNR reaches it (default
-26.82 dB, the shipped model's on its artist bake, /work/data/artist1: meaningful only on that dataset with its
+26.82 dB, the shipped model's on its artist bake (the artist folder of its training data): meaningful only on that dataset with its
 inputs). Without ``--data`` a synthetic
 set (model/dataset/synthetic.py) of ``--samples`` at ``--size`` is made in a temporary folder. With several
 processes on CPU each gets ``--threads`` / N threads, so the cores are the same. Prints one JSON line per run
@@ -28,7 +28,7 @@ from pathlib import Path
 import _bootstrap  # noqa: F401  (the checkout as package "ssgi")
 
 ROOT = Path(__file__).resolve().parent.parent
-SHIPPED_PSNR = 26.82  # models/ssgi_default.pt best val_psnr (epoch 7 of its run on /work/data/artist1)
+SHIPPED_PSNR = 26.82  # models/ssgi_default.pt best val_psnr (epoch 7 of its run, on its artist folder)
 
 
 def one_run(data, out, nproc, device, amp, a) -> dict:

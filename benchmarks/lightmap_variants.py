@@ -1,5 +1,5 @@
 """Which shot lightmap, and how much of it: lightmap variants scored on a shot's withheld frames without Blender
-(session 16, docs/fit_shot.md).
+(docs/fit.md).
 
 Two steps:
 
@@ -16,8 +16,8 @@ add), ``none`` (the field of the whole diffuse light), ``known`` (the field of t
 model/learn/lightmap.LAMBDAS, the pooled PSNR over the frames and the per-frame PSNRs, scored as the fit's withheld
 scoring scores (fit_report.score_withheld: geometry pixels, the network's diffuse part composed with EEVEE's rest).
 The network is scored stateless (no temporal mode), as ``fitted_network`` is. ``--edge-rule`` keeps the network on
-edge pixels (sessions 16-26), ``--edge-spread`` restores session 15's edge rule (the depth term spread over 3 x 3
-pixels), for comparison. Fields are trained for ``--seconds`` of
+edge pixels, ``--edge-spread`` spreads the depth term over 3 x 3
+pixels (wider edge bands), for comparison. Fields are trained for ``--seconds`` of
 wall time, so a loaded machine trains fewer steps; the steps are printed.
 """
 from __future__ import annotations
@@ -68,7 +68,7 @@ def score(a) -> None:
     from ssgi.model.infer.compose import compose
     from ssgi.model.learn import lightmap as llm
     torch.set_num_threads(a.threads)
-    if a.edge_spread:  # session 15's rule: the depth term spread over 3 x 3 pixels
+    if a.edge_spread:  # the wider rule: the depth term spread over 3 x 3 pixels
         src = Path(lm.__file__).read_text()
         code = src[src.index("def edges("):src.index("def blend_weight(")]
         code = code.replace("e = d2 > EDGE_DEPTH * iz", "e = spread((d2 > EDGE_DEPTH * iz).astype(np.float32)) > 0")
@@ -154,8 +154,8 @@ def main() -> None:
     s.add_argument("--model", default=None, help="score this network instead of the cached prediction (re-predicted "
                    "from the cached passes, stateless)")
     s.add_argument("--edge-rule", action="store_true",
-                   help="sessions 16-26's rule: the network, not the lightmap, on edge pixels (for comparison)")
-    s.add_argument("--edge-spread", action="store_true", help="session 15's edge rule, for comparison")
+                   help="the network, not the lightmap, on edge pixels (for comparison)")
+    s.add_argument("--edge-spread", action="store_true", help="the depth edge term spread over 3 x 3 pixels, for comparison")
     a = ap.parse_args()
     (cache if a.cmd == "cache" else score)(a)
 

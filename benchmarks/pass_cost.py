@@ -1,4 +1,4 @@
-"""Benchmark (issue 15, item 4): what each render of a whole SSGI frame costs, against EEVEE's own GI render
+"""Benchmark: what each render of a whole SSGI frame costs, against EEVEE's own GI render
 (ray tracing + fast GI) at the same samples, in the same run.
 
 For each artist scene (benchmarks/artist_scenes.py) at --size, after an untimed warm-up of every render at
@@ -11,24 +11,24 @@ For each artist scene (benchmarks/artist_scenes.py) at --size, after an untimed 
   G-buffer), rest (the artist-settings render);
 and prints a markdown table of seconds per render and the frame / EEVEE GI ratio, in wall-clock seconds and in the
 process's CPU seconds (``cpu_s``; the JSON keeps each round's, and each frame's ratio to the EEVEE GI render made just
-before it: on a shared machine the paired CPU ratio is the steadiest number, docs/one_render.md session 24).
+before it: on a shared machine the paired CPU ratio is the steadiest number, docs/one_render.md).
 With --plain-gi in a scene where nothing casts a shadow (passes.casts_no_shadow), whose SSGI renders skip EEVEE's
 shadows, the plain EEVEE GI render is also timed with its shadows off (the same image): the frame at equal savings. With --refs (a dataset
-folder holding the scenes' Cycles references at this size, e.g. the report's /work/reports/artist/data) every
+folder holding the scenes' Cycles references at this size, e.g. the report's out/reports/artist/data) every
 variant's SSGI image is scored (model/metrics.score over the geometry mask of the stored sample, as the report
 scores), and the groups of each variant are compared with the first variant's (PSNR, max |difference|).
 
     nice -n 10 .venv/bin/python benchmarks/pass_cost.py --size 320x180 [--names studio ...] \\
-        [--variants before,merged,...] [--refs /work/reports/artist/data] [--json out.json] [--repeats 3] [--model M.pt]
+        [--variants before,merged,...] [--refs out/reports/artist/data] [--json out.json] [--repeats 3] [--model M.pt]
 
 With a one-render model (``--model``, docs/one_render.md) every variant makes the same single EEVEE render.
 ``--blends FILE ... [--frame N]`` times one's own .blend files (a fitted shot's scene) instead of the artist scenes:
     .venv/bin/python benchmarks/pass_cost.py --blends cornell_emissive.blend --frame 25 --size 960x540 \
         --model cornell1r.pt --variants merged --repeats 3 --plain-gi
-    nice -n 10 .venv/bin/python benchmarks/pass_cost.py --facts [--refs /work/reports/artist/data]
+    nice -n 10 .venv/bin/python benchmarks/pass_cost.py --facts [--refs out/reports/artist/data]
 
 Variants (``VARIANTS``: keywords of passes.render_gbuffer): ``before`` (every group from its own render: the
-path before issue 15), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
+five-render path), ``merged`` (albedo, normal, depth, emission from the artist-settings render: exact),
 ``raster1`` (merged + the direct-only render at 1 sample, as the bake renders it), ``rest4`` (raster1 + the
 artist-settings render at 4 samples, not the scene's), ``proxy_shadows`` / ``proxy_no_shadows`` (merged, a GI-off
 one-render model's emitter proxies with / without shadows, whatever its bake recorded), ``proxy_both_sides`` /
@@ -63,7 +63,7 @@ VARIANTS: dict[str, dict] = {
     # a GI-off one-render model's emitter proxies with / without shadows, whatever the model's bake recorded
     "proxy_shadows": dict(merge=True, proxy_shadows=True),
     "proxy_no_shadows": dict(merge=True, proxy_shadows=False),
-    # unshadowed proxies on every side of an emitter, or only on the sides facing open space (session 23)
+    # unshadowed proxies on every side of an emitter, or only on the sides facing open space
     "proxy_both_sides": dict(merge=True, proxy_shadows=False, proxy_sides="both"),
     "proxy_open_sides": dict(merge=True, proxy_shadows=False, proxy_sides="open"),
 }
@@ -152,7 +152,7 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
     passes.set_resolution(scene, *size)
     row = dict(scene=name, size=f"{size[0]}x{size[1]}", samples=int(scene.eevee.taa_render_samples), variants={})
     # with repeats > 1 EEVEE GI and each variant's frame alternate, and the medians are kept: on a shared machine
-    # one render can take twice another's time (docs/pass_cost.md)
+    # one render can take twice another's time (docs/one_render.md)
     gi_times, plain_times, gi_cpu, plain_cpu, frames = [], [], [], [], {v: [] for v in variants}
     # where nothing casts a shadow SSGI's renders skip EEVEE's shadows (passes.SKIP_UNUSED_SHADOWS): the plain EEVEE GI
     # render is then also timed so, for a comparison at equal savings

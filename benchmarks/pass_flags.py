@@ -1,11 +1,11 @@
-"""Benchmark (issue 15, item 4): what each view-layer pass SSGI asks for costs one EEVEE render (ray tracing + fast GI
+"""Benchmark: what each view-layer pass SSGI asks for costs one EEVEE render (ray tracing + fast GI
 on, the artist scene's own samples), against the same render writing only Combined, in the same run.
 
-    .venv/bin/python benchmarks/pass_flags.py --scenes /work/data/artist_scenes --names cornell_emissive exterior \\
+    .venv/bin/python benchmarks/pass_flags.py --scenes data/artist_scenes --names cornell_emissive exterior \\
         [--size 960x540] [--repeats 2] [--json out.json]
 
 Each render's wall-clock seconds are printed and kept, and its CPU seconds beside them (``cpu_s``, the JSON's
-"cpu_s": steadier on a shared machine, session 24).
+"cpu_s": steadier on a shared machine).
 
 The scenes are benchmarks/artist_scenes.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
 render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--repeats`` rounds of one render per
@@ -14,13 +14,13 @@ the motion vectors of the temporal mode), all with ray tracing + fast GI on, ``N
 what EEVEE's own GI costs the render) and ``GI_OFF_SETS`` with both off (the passes a GI-off one-render frame would
 read), and ``ONE_RENDER_SETS``: the six passes a GI-off one-render frame of a shot with an emitter and a glossy
 surface writes, with the emitter proxies (direct_light.emitter_proxies) casting shadows, casting none, or absent
-(session 21; ``one_open_proxies``: unshadowed, only on the sides facing open space, the default since
-session 23). ``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
+(``one_open_proxies``: unshadowed, only on the sides facing open space, the default).
+``--configs`` picks some, in the order given (alternating them round by round); any configuration runs
 with ray tracing and fast GI off as NAME_no_gi, and any (either) with EEVEE's shadows off as NAME_no_shadows (what
-the shadow pipeline costs: session 24, the renders SSGI makes where nothing casts a shadow, ``passes.casts_no_shadow``),
+the shadow pipeline costs: the renders SSGI makes where nothing casts a shadow, ``passes.casts_no_shadow``),
 and any (either) as NAME_unculled with EEVEE's light threshold 0 and every lamp a cutoff distance, as SSGI's own
-renders make it (``passes.no_light_culled``; session 30).
-``--filter-size PX``: the film filter of every render (default: the file's; Blender's default is 1.5 px; session 24:
+renders make it (``passes.no_light_culled``).
+``--filter-size PX``: the film filter of every render (default: the file's; Blender's default is 1.5 px;
 most of the passes' cost is the film's filter gather). ``--frame`` / ``--samples``: the frame and the EEVEE samples of
 every render (default: frame 1, the file's samples). Prints a yardstick of the machine's speed first
 (``machine_speed``, also in the JSON as "machine"), then each render's seconds, the minimum and the median;
@@ -46,7 +46,7 @@ from ssgi.model.cliargs import parse_size  # noqa: E402
 
 PASSES = ("use_pass_diffuse_color", "use_pass_diffuse_direct", "use_pass_normal", "use_pass_z", "use_pass_emit")
 VECTOR = "use_pass_vector"
-# passes a model could read instead (session 22: the Glossy Color of the reflection map, Position for normals)
+# passes a model could read instead (the Glossy Color of the reflection map, Position for normals)
 SINGLES = ("use_pass_glossy_color", "use_pass_position")
 CONFIGS: dict[str, tuple[str, ...]] = {"combined": (), **{p[len("use_pass_"):]: (p,) for p in PASSES + (VECTOR,) + SINGLES},
                                        "ssgi5": PASSES, "ssgi5+vector": PASSES + (VECTOR,)}
@@ -55,15 +55,15 @@ NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEV
 # configuration above also runs with both off as NAME_no_gi (``combined_no_gi`` is NO_GI), and so do the pass sets a
 # GI-off one-render frame could read: colour + diffuse light + the upsampler's normal and depth (ssgi4), colour +
 # diffuse light (ssgi2), colour + normal + depth (ssgi3: a model that reads the Combined pass instead of the light).
-# ssgi_cz: colour + depth, the normals derived from the depth (passes.NORMALS_FROM_DEPTH; session 30)
+# ssgi_cz: colour + depth, the normals derived from the depth (passes.NORMALS_FROM_DEPTH)
 GI_OFF_SETS: dict[str, tuple[str, ...]] = {"ssgi4": PASSES[:4], "ssgi2": PASSES[:2],
                                            "ssgi3": (PASSES[0], PASSES[2], PASSES[3]), "ssgi_cz": (PASSES[0], PASSES[3])}
 # the GI-off one render of a shot fit (passes.ONE_RENDER_MODES["eevee_local"]): the five passes + Glossy Color (the
-# reflection map's), with the emitter proxies shadowed (sessions 20), unshadowed (21, the default) or absent:
+# reflection map's), with the emitter proxies shadowed, unshadowed (the default) or absent:
 # {name: (passes, proxies: None = none, else their shadows)}
 ONE_PASSES = PASSES + ("use_pass_glossy_color",)
-# (session 23: the proxies of every side, as before, or only of the sides facing open space,
-# direct_light.open_sides, the default since; "one_proxies" and "one_shadowed_proxies" keep every side)
+# (the proxies of every side, or only of the sides facing open space,
+# direct_light.open_sides, the default; "one_proxies" and "one_shadowed_proxies" keep every side)
 ONE_RENDER_SETS: dict[str, tuple[tuple[str, ...], tuple[bool, str] | None]] = {
     "one_shadowed_proxies": (ONE_PASSES, (True, "both")), "one_proxies": (ONE_PASSES, (False, "both")),
     "one_open_proxies": (ONE_PASSES, (False, "open")), "one": (ONE_PASSES, None)}
@@ -78,7 +78,7 @@ def optional_pass_flags(view_layer) -> list[str]:
 def cpu_s() -> float:
     """CPU seconds of this process so far, all threads: EEVEE's software GL (llvmpipe), the network and the
     compositor run inside it, so the CPU seconds of a render are its work whatever else the machine runs at the
-    time, where its wall-clock seconds on this shared 2-core machine scatter by 15-40 % (session 24). (Also
+    time, where its wall-clock seconds on this shared 2-core machine scatter by 15-40 %. (Also
     benchmarks/pass_cost.py's.)"""
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
@@ -120,9 +120,9 @@ def render(scene, on, gi: bool = True, proxies: tuple[bool, str] | None = None, 
 
 
 def machine_speed() -> dict:
-    """A yardstick of the machine's speed, to tell sessions apart (session 23: EEVEE rendered 2.5-3x slower than in
-    session 21 on the same benchmark): the seconds of a pure-Python loop of 10^7 additions (best of 3; 0.51-0.61 s on
-    session 23's machine) and the load average."""
+    """A yardstick of the machine's speed, to tell runs apart (the same benchmark has
+    rendered 2.5-3x slower on the same machine kind): the seconds of a pure-Python loop of 10^7 additions (best of 3;
+    0.51-0.61 s on the 2-core machine) and the load average."""
     best = float("inf")
     for _ in range(3):
         t = time.perf_counter()
@@ -177,7 +177,7 @@ def main(argv=None) -> int:
         own_shadows = sc.eevee.use_shadows  # (the configurations without _no_shadows keep the file's setting)
         sc.render.resolution_percentage = 100
         sc.render.resolution_x, sc.render.resolution_y = 64, 36
-        # (untimed: the first render of a pipeline compiles its shaders, 10-30 CPU s at 480x270 on Mesa, session 25: GI on,
+        # (untimed: the first render of a pipeline compiles its shaders, 10-30 CPU s at 480x270 on Mesa: GI on,
         # GI off, shadows off)
         render(sc, ONE_PASSES + (VECTOR,), shadows=own_shadows)
         render(sc, ONE_PASSES, gi=False, shadows=own_shadows)

@@ -1,11 +1,11 @@
-"""Benchmark (issue 15, session 23): what the GI-off one render's emitter proxies on every side of a planar emitter
+"""Benchmark: what the GI-off one render's emitter proxies on every side of a planar emitter
 give its inputs that the proxies on the open sides only (``direct_light.open_sides``, ``passes.PROXY_SIDES_LOCAL``)
 do not: the one render of a local one-render model (``passes.render_gbuffer``: eevee_local, rest, Combined) made
 both ways, compared pixel by pixel, with a figure (Combined both sides | open sides | |eevee_local difference| x5,
 the top rows where the difference is, 3x).
 
     .venv/bin/python benchmarks/proxy_sides.py --blend SHOTS/cornell_emissive.blend --frame 25 --size 480x270 \\
-        [--png docs/one_render/s23/cornell_proxy_sides_rim.png]
+        [--png out/proxy_sides_rim.png]
 
 Prints, per group: its mean, the largest and the mean absolute difference, the pixels that differ by more than
 1e-3 and the PSNR between the two (peak 1).

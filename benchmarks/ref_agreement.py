@@ -1,4 +1,4 @@
-"""Benchmark: self-agreement of the Cycles reference (issue 3), by samples and denoising.
+"""Benchmark: self-agreement of the Cycles reference, by samples and denoising.
 
 Two references of the same room with different Cycles seeds; PSNR between them by the seed's convention
 (linear RGB clamped to [0,1], MSE pooled over the image), and seconds per reference.

@@ -1,4 +1,4 @@
-"""Benchmark: the per-sample reference target (issue 3; reference.render_reference), checked against the truth.
+"""Benchmark: the per-sample reference target (reference.render_reference), checked against the truth.
 
 For each room, two references made the way the baker makes them (halves of different seeds, doubled until the
 halves' PSNR + 3.01 dB reaches the target, or --ref-samples is spent), from two disjoint sets of seeds. Prints

@@ -1,8 +1,8 @@
-"""Benchmark (session 20): what a shot's reflection map does on the glossy edge pixels (silhouettes, gloss edges) it
+"""Benchmark: what a shot's reflection map does on the glossy edge pixels (silhouettes, gloss edges) it
 learns nothing from. Two parts, on a finished shot fit (``cli.py fit --frames ...``; FIT.fit is its work folder):
 
 - ``--val``: on the fit's validation views, with the map as fitted, the map's validation ceiling (Cycles' diffuse
-  part + EEVEE's rest + lam x map) with the edges left to EEVEE (before session 20) and corrected (now), and the
+  part + EEVEE's rest + lam x map) with the edges left to EEVEE and corrected (what the map does), and the
   PSNR of the edge band alone;
 - ``--withheld``: the shot's withheld frames re-rendered and re-scored with the current code, the model unchanged
   (``pipeline.fit.render_withheld``; sheets into --out).

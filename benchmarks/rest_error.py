@@ -1,4 +1,4 @@
-"""Benchmark (issue 16): where the ceiling of a diffuse-part model loses, by kind of pixel.
+"""Benchmark: where the ceiling of a diffuse-part model loses, by kind of pixel.
 
 The ceiling of a diffuse-part model is Cycles' own diffuse part + EEVEE's rest as the node renders it
 (passes.render_gbuffer's ``rest``: the scene's samples, the emitter proxies); whatever it loses is EEVEE's rest.

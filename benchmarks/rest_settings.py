@@ -1,4 +1,4 @@
-"""Benchmark (issue 16): does EEVEE's ray-tracing setup lift the ceiling of a diffuse-part model on a shot?
+"""Benchmark: does EEVEE's ray-tracing setup lift the ceiling of a diffuse-part model on a shot?
 
 A diffuse-part model's image is its prediction + EEVEE's rest (model/infer/compose.py), so no diffuse prediction
 can beat ``ceiling`` = Cycles' own diffuse part + EEVEE's rest against Cycles' image. This renders, for each

@@ -1,4 +1,4 @@
-"""Probe (issue 15, session 28): EEVEE with ray tracing on and fast GI off (ray tracing only up to a roughness,
+"""Probe: EEVEE with ray tracing on and fast GI off (ray tracing only up to a roughness,
 ``ray_tracing_options.trace_max_roughness``): does it keep EEVEE GI's reflections and refraction on metal and glass
 while diffuse surfaces get the GI-off light, and what does such a render cost against EEVEE GI and GI off? CPU seconds
 of the process per render (EEVEE's llvmpipe runs in it), warm (one untimed render of each configuration first), the
@@ -8,7 +8,7 @@ configurations alternating round by round; mean absolute differences of the Comb
     .venv/bin/python benchmarks/rt_probe.py --blend S/studio.blend --rounds 2 --out probe.png --json probe.json
 
 (S: ``benchmarks/artist_scenes.py --out S``.) The PNG is the images side by side in ``--configs`` order, tonemapped
-x/(1+x), sRGB (by default EEVEE GI | GI off | ray tracing only, max roughness 0.5 | 0.1). Session 29's cheaper ways to
+x/(1+x), sRGB (by default EEVEE GI | GI off | ray tracing only, max roughness 0.5 | 0.1). Cheaper ways to
 keep EEVEE's GI:
 
     .venv/bin/python benchmarks/rt_probe.py --blend S/studio.blend --rounds 1 \
@@ -26,7 +26,7 @@ import _bootstrap  # noqa: F401  (the checkout as package ssgi)
 # {ray_tracing_options setting: value}); the other settings stay the scene's
 CONFIGS = {"gi": (True, True, None, {}, {}), "off": (False, False, None, {}, {}),
            "rt_only_05": (True, False, 0.5, {}, {}), "rt_only_01": (True, False, 0.1, {}, {}),
-           # session 29: cheaper ways to keep EEVEE's GI
+           # cheaper ways to keep EEVEE's GI
            "fast_gi_only": (False, True, None, {}, {}),  # fast GI without ray tracing
            "probe_method": (True, True, None, {"ray_tracing_method": "PROBE"}, {}),  # rays from the light probes
            "trace_eighth": (True, True, None, {"fast_gi_resolution": "8"}, {"resolution_scale": "8"}),

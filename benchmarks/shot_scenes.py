@@ -1,8 +1,8 @@
-"""Scenes that move (issue 16, item 4), built by script (deterministic) and saved as .blend files for
+"""Scenes that move, built by script (deterministic) and saved as .blend files for
 ``cli.py fit --frames``, ``cli.py render`` and the temporal benchmark.
 
     .venv/bin/python benchmarks/shot_scenes.py --out DIR [--size 240x135] [--frames 48] [--names ripple room living_room]
-    .venv/bin/python benchmarks/shot_scenes.py --look docs/fit_shot [--size 160x90]   # EEVEE strips of 3 frames
+    .venv/bin/python benchmarks/shot_scenes.py --look out/shot_scenes [--size 160x90]   # EEVEE strips of 3 frames
 
 Scenes (``NAMES``), each animated over frames 1..N (N = ``--frames``, 48 by default):
 
@@ -19,7 +19,7 @@ Scenes (``NAMES``), each animated over frames 1..N (N = ``--frames``, 48 by defa
   a box that waves (Wave modifier) and a column that twists (Simple Deform, deforming meshes).
 - ``living_room``: benchmarks/artist_scenes.py's living room, the camera moving along the room (a slow
   truck right and push in, looking at the armchair and the lamp) over the frame range.
-- ``cornell_emissive``, ``studio``: benchmarks/artist_scenes.py's scenes of the same names (issue 10's set),
+- ``cornell_emissive``, ``studio``: benchmarks/artist_scenes.py's scenes of the same names,
   the camera moving (the Cornell box: a push in and to the right, tilting down to the ball; the studio: an
   orbit to the left, rising) over the frame range; nothing else moves, as in ``living_room``.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Flicker of SSGI with and without its temporal mode against EEVEE's own GI and Cycles + OIDN (issue 16).
+"""Flicker of SSGI with and without its temporal mode against EEVEE's own GI and Cycles + OIDN.
 
     .venv/bin/python benchmarks/temporal.py --out out/temporal [--blend SHOT.blend --frames 1-24 --scene S]
         [--size 160x90] [--ref-samples 64] [--model M.pt] [--eevee-samples 8]

@@ -4,7 +4,7 @@ model reading its own inputs, all scored against one target group.
 
     .venv/bin/python benchmarks/val_psnr.py --data DIR --models a.pt b.pt [--target ref] [--split val|all]
 
-Issue 14 used it to check that a diffuse-part model is no worse than the shipped whole-image model on diffuse
+It checks, for example, that a diffuse-part model is no worse than the shipped whole-image model on diffuse
 rooms (there the diffuse part is the whole image, so one target scores both). Prints one JSON line per model.
 """
 from __future__ import annotations

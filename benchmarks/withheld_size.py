@@ -1,4 +1,4 @@
-"""Benchmark (issue 15): shot fits' withheld frames scored at an artist size, several models side by side.
+"""Benchmark: shot fits' withheld frames scored at an artist size, several models side by side.
 
 A shot fit (``cli.py fit --frames A-B``) scores its withheld frames at the views' size (240x135). This renders
 chosen withheld frames of each fitted model's shot at ``--size`` through the node's render path

@@ -1,11 +1,11 @@
-"""Benchmark (issue 15): the shipped model at full resolution against prediction at working resolutions
+"""Benchmark: the shipped model at full resolution against prediction at working resolutions
 (1/2, 1/4, 1/8 linear), upsampled bilinearly or guided, with and without the full-resolution direct light,
 on baked dataset folders at any size. Scores (PSNR, SSIM, FLIP over the geometry pixels, at the output size,
 against the folder's Cycles reference ``ref``) the SSGI image as the node composes it (prediction + ``rest``
 when the sample holds ``rest``), and the time and peak memory of the prediction (reduce + network + upsample +
 composition), each in this process with VmHWM reset before it.
 
-    .venv/bin/python benchmarks/working_res.py --data /work/data/wr/rooms960 [/work/data/diffuse_val ...] \\
+    .venv/bin/python benchmarks/working_res.py --data data/wr/rooms960 [data/diffuse_val ...] \\
         [--model models/ssgi_default.pt] [--factors 2,4,8] [--threads 2] [--limit 6] [--crops DIR] [--json OUT]
     .venv/bin/python benchmarks/working_res.py --time-at 1920x1080 [--factors 4]     # time and memory only
                                         # (no emitter, and one emitter panel: model/infer/fine.py's cost)

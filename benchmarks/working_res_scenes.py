@@ -1,4 +1,4 @@
-"""Benchmark (issue 15): the working resolution on .blend scenes at an artist size. For each scene and model, renders
+"""Benchmark: the working resolution on .blend scenes at an artist size. For each scene and model, renders
 the frame's passes as the render path does (``RenderSession``, the node's groups, once), then predicts and composes
 it at full resolution, at 1/4 with and without the full-resolution prediction near emitters (model/infer/fine.py) and
 at 1/2, and scores each against the scene's Cycles reference: PSNR, SSIM and FLIP over the geometry pixels (as the

@@ -85,14 +85,14 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "B(ack)); per bin the share of rays that hit nothing within the clip end (...O, open) and the mean of "
           "m / (d + m) over the rays (...N, near; 0 for a miss), d the hit distance and m the median of all hit "
           "distances (scale free, as depth). Constant over the image. Tells a closed room (walls all round, "
-          "behind the camera too) from an open stage or a sky (ssgi_addon/blender/surround.py; issue 14).",
+          "behind the camera too) from an open stage or a sky (ssgi_addon/blender/surround.py).",
           render_pass=None, preview="grey", drop_rank=1),
     Group("sky", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
           "The world's light on each surface, unoccluded, without a render of the scene: the world's first-order "
           "spherical harmonics (from a 64x32 equirectangular Cycles image of the world alone) evaluated at the "
           "normal, as EEVEE lights a diffuse surface from the world (model/sky.py; within 2-5 % of the world group "
           "on the artist test set). 0 where nothing is hit and in a black world. Tells a GI-off one-render model how "
-          "much of its image is the sky's unoccluded light (session 29, docs/one_render.md).",
+          "much of its image is the sky's unoccluded light (docs/one_render.md).",
           render_pass=None, drop_rank=1),
     Group("rest", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
           "What EEVEE renders well itself: EEVEE's Combined image of the scene at its own settings minus EEVEE's "
@@ -104,27 +104,27 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "EEVEE's Glossy Color pass of the artist-settings render (the render that gives rest): how strongly each "
           "surface reflects, per channel (a metal's colour, a dielectric's Fresnel-weighted specular). A shot's "
           "reflection map (model/infer/reflmap.py) corrects EEVEE's reflections by gloss x its field; the input of "
-          "head residual_combined_gloss (metal takes the light a GI-off render lacks; session 29).",
+          "head residual_combined_gloss (metal takes the light a GI-off render lacks).",
           render_pass="Glossy Color", preview="color"),
     Group("eevee_diffuse", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE's own diffuse light at the artist's settings with ray tracing and fast GI on: the Diffuse Direct "
           "pass of the render that gives rest (EEVEE 5.0 puts all its diffuse light there: the lamps at their real "
-          "size with soft shadows, the world, the traced and fast-GI indirect light). The input of one-render models "
-          "(issue 15): every group they read comes from that one render (docs/one_render.md).",
+          "size with soft shadows, the world, the traced and fast-GI indirect light). The input of one-render models"
+          ": every group they read comes from that one render (docs/one_render.md).",
           render_pass="Diffuse Direct", drop_rank=None),
     Group("eevee_local", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE's own diffuse light with ray tracing and fast GI OFF, at the artist's samples, with an area light "
-          "standing in for each planar emitter (the render path's emitter proxies; casting no shadow since session 21, "
-          "what the model's bake recorded otherwise): the lamps at their real size "
+          "standing in for each planar emitter (the render path's emitter proxies; casting no shadow unless "
+          "the model's bake recorded otherwise): the lamps at their real size "
           "with soft shadows and the world's light from the probes, no indirect light. The input of GI-off "
-          "one-render models (issue 15: a frame that is one EEVEE render without EEVEE's GI, docs/one_render.md); "
+          "one-render models (a frame that is one EEVEE render without EEVEE's GI, docs/one_render.md); "
           "every group they read comes from that render, and so does the rest.",
           render_pass="Diffuse Direct", drop_rank=None),
     Group("eevee_combined", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
           "EEVEE's Combined image of the same GI-off one render as eevee_local (ray tracing and fast GI off, the "
           "emitter proxies on, the artist's samples): the lamps' light with soft shadows on every component, "
           "specular and emission included, no indirect light. The input of GI-off one-render models that do without "
-          "the Diffuse Direct pass (head residual_combined, target ref_combined, docs/one_render.md session 26): "
+          "the Diffuse Direct pass (head residual_combined, target ref_combined, docs/one_render.md): "
           "their image is this render + albedo x the light it lacks.",
           render_pass="Combined", drop_rank=None),
     Group("vector", ("X", "Y", "Z", "W"), "motion", "eevee", "use_pass_vector", "pixels",
@@ -137,7 +137,7 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           render_pass="Combined"),
     Group("ref", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
           "Cycles path-traced reference with the lights' real radius: the whole image; the training target of "
-          "models with target 'ref' (every model before issue 14).", render_pass="Combined"),
+          "models with target 'ref' (the first models, which learned the whole image).", render_pass="Combined"),
     Group("ref_diffuse", ("R", "G", "B"), "light", "cycles", None, "linear radiance (HDR)",
           "The diffuse part of the Cycles reference: Diffuse Color x (Diffuse Direct + Diffuse Indirect), denoised "
           "with OIDN (albedo and normal guides) when the bake denoises. The target of models that predict only "
@@ -185,14 +185,14 @@ INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "w
                                  "emit_direct", "surround", "sky", "eevee_diffuse", "eevee_local", "eevee_combined",
                                  "gloss", "lit",
                                  "scene", "glow", "scene_gi", "scene_comb")
-# What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (models before issue 14), or
+# What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (the first models), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 # A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what
 # a prediction + rest must be to equal Cycles' image. A model that learns it is composed as a ref_diffuse model
 # (prediction + rest) and can also correct EEVEE's rest where it differs from Cycles' on surfaces with a diffuse
-# colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit_shot.md); where
-# the albedo is 0 (metal) its prediction stays 0 and EEVEE's rest stands. The per-shot fit's --learn-rest (issue 16).
-# A fourth, "ref_combined" (GI-off one-render models without the Diffuse Direct pass, session 26): the whole Cycles
+# colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit.md); where
+# the albedo is 0 (metal) its prediction stays 0 and EEVEE's rest stands. The per-shot fit's --learn-rest.
+# A fourth, "ref_combined" (GI-off one-render models without the Diffuse Direct pass): the whole Cycles
 # image, learned as EEVEE's GI-off Combined image (group eevee_combined) + albedo x the light it lacks (head
 # residual_combined); the model's prediction is that addition (signed: the network may also take light away where
 # EEVEE's is brighter), and the SSGI image is prediction + eevee_combined. No rest, no Diffuse Direct pass.

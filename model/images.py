@@ -101,7 +101,7 @@ def normals_from_depth(depth: np.ndarray, P, clip_end: float | None = None) -> n
     of its horizontal and vertical one-sided differences (``_one_sided``). Pixels with nothing hit
     (``geometry_mask``, and with ``clip_end`` the depths at ``WORLD_DEPTH_FRACTION`` of it or beyond: EEVEE's Z pass
     there) get a zero normal, as in EEVEE's Normal pass. These are the geometric normals: flat per
-    polygon where EEVEE's pass interpolates a smooth-shaded mesh's (session 30: on the artist test set at 960x540
+    polygon where EEVEE's pass interpolates a smooth-shaded mesh's (on the artist test set at 960x540
     the two differ by a median 0.02-1.8 degrees)."""
     # (float32 throughout: neighbouring pixels' positions differ by millimetres to centimetres, float32 resolves
     # micrometres at 10 m; 0.05 s at 960x540 on this machine against 0.1 in float64)

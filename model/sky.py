@@ -2,7 +2,7 @@
 
 EEVEE lights a diffuse surface from the world with the world's first-order spherical harmonics (L1) evaluated at
 the surface normal: a least-squares L1 fit to EEVEE's own world pass (``passes.render_world``) leaves 0.1-0.2 % of
-it on the artist test set's exterior and living room (session 29, docs/one_render.md). So the light the world
+it on the artist test set's exterior and living room (docs/one_render.md). So the light the world
 brings, unoccluded, is four RGB coefficients of the world and the normal pass: no render of the scene. The
 coefficients come from a small equirectangular image of the world (ssgi_addon/blender/sky.py renders it with
 Cycles); everything here is numpy.

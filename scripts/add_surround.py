@@ -1,8 +1,8 @@
 """Add the surround group (or, with --group sky, the sky group) to dataset folders baked before they held it
 (ssgi_addon/pipeline/surround_fill.py).
 
-    .venv/bin/python scripts/add_surround.py /work/data/artist1 /work/data/studio1
-    .venv/bin/python scripts/add_surround.py --group sky /work/data/artist1
+    .venv/bin/python scripts/add_surround.py data/artist1 data/studio1
+    .venv/bin/python scripts/add_surround.py --group sky data/artist1
 """
 import argparse
 import json

@@ -50,7 +50,7 @@ meta = {
 }
 out.with_suffix(".json").write_text(json.dumps(meta, indent=1, default=str))
 print(f"shipped {out} ({meta['bytes']} bytes), val PSNR {ck['best'].get('val_psnr'):.2f} dB")
-# the ONNX export beside it (issue 17): the node renders it without torch; tests check it is the reproducible
+# the ONNX export beside it: the node renders it without torch; tests check it is the reproducible
 # export of this very .pt
 sys.path.insert(0, str(ROOT))
 import cli  # noqa: E402

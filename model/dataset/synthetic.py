@@ -52,7 +52,7 @@ def sample(w: int, h: int, seed: int, scene_seed: int) -> dict[str, np.ndarray]:
 
 
 def with_emission(g: dict, seed: int) -> dict:
-    """A sample of the issue-14 format: an emissive patch (``emission``, zero albedo there), the diffuse part of
+    """A sample of the diffuse-part format: an emissive patch (``emission``, zero albedo there), the diffuse part of
     the reference (``ref_diffuse``) and the whole reference = diffuse part + emission."""
     g = dict(g)
     h, w = g["albedo"].shape[:2]
@@ -70,7 +70,7 @@ def with_emission(g: dict, seed: int) -> dict:
 def with_rest(g: dict, seed: int, eevee_share: float = 0.3) -> dict:
     """``with_emission`` and EEVEE's ``rest``: Cycles' image also holds a glossy glow around the emitter on the
     diffuse-coloured surfaces, of which EEVEE's rest renders only ``eevee_share`` (as EEVEE's rough reflections
-    miss an emissive lamp shade, docs/fit_shot.md); the emission itself is in both."""
+    miss an emissive lamp shade, docs/fit.md); the emission itself is in both."""
     g = with_emission(g, seed)
     h, w = g["albedo"].shape[:2]
     em = g["emission"].max(-1)

@@ -1,5 +1,5 @@
 """The report's analysis (bpy-free): per-method summaries, the Cycles ladders, equal-quality speed-ups, Pareto
-fronts, the verdicts and issue 6's targets, computed from the raw record ``ssgi_addon/pipeline/report.py``
+fronts, the verdicts and the default model's targets, computed from the raw record ``ssgi_addon/pipeline/report.py``
 measures (``analyse(raw)``). The files made of it are written by ``report.write_outputs``.
 
 Metrics per image (``metrics.score``): PSNR by the seed's convention (linear RGB clamped to [0, 1], MSE
@@ -247,7 +247,7 @@ def verdicts(raw) -> dict:
 
 
 def targets(raw) -> dict:
-    """Issue 6's targets for the shipped default model, measured (printed in report.md, never asserted)."""
+    """The targets for the shipped default model (prediction time and memory by size), measured (printed in report.md, never asserted)."""
     methods = raw["methods"]
     k = raw.get("default_model_key")
     if not k or k not in methods or not methods[k].get("summary"):

@@ -117,7 +117,7 @@ WITHHELD_LABELS = {"fitted": "fitted model (SSGI node)", "fitted_network": "fitt
                    "oracle_diffuse": "ceiling: the reference's diffuse part + EEVEE's rest (as the node corrects it)",
                    "oracle_eevee_rest": "ceiling without the reflection map: the reference's diffuse part + EEVEE's "
                                         "own rest"}
-SHOT_BAR_DB = 35.0  # issue 16: the fitted model on withheld frames
+SHOT_BAR_DB = 35.0  # the bar for a fitted model on withheld frames (dB)
 
 
 def score_withheld(frames: list[dict]) -> dict:

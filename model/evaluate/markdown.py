@@ -107,7 +107,7 @@ def report_md(raw: dict) -> str:
     L += shot_section(raw.get("temporal_shot"))
     tg = raw.get("targets", {})
     if tg:
-        L += ["## Issue 6 targets for the default model (measured, not asserted)", "", "```",
+        L += ["## Targets for the default model (measured, not asserted)", "", "```",
               json.dumps(finite_or_str(tg), indent=1, default=json_default), "```", ""]
     L += ["## Ladders", "", "| spp | Cycles raw: time, PSNR | Cycles + OIDN: time (render + denoise), PSNR |", "|---|---|---|"]
     raw_l = {r["spp"]: r for r in raw.get("ladders", {}).get("cycles", [])}
@@ -141,7 +141,7 @@ def shot_section(ts: dict | None) -> list[str]:
     for name, r in ts["methods"].items():
         L.append(f"| {name} | {r['warped']:.4f} | {r['unwarped']:.4f} | {r['psnr']:.2f} | {r['tm_psnr']:.2f} | "
                  f"{r['s_per_frame']:.2f} |")
-    L += ["", f"Bar (issue 16): SSGI temporal at most Cycles 1 spp + OIDN's warped flicker: "
+    L += ["", f"Bar: SSGI temporal at most Cycles 1 spp + OIDN's warped flicker: "
           f"{ts['bar']['flicker_at_most_cycles_1spp']}; PSNR cost against temporal off "
           f"{ts['bar']['psnr_cost_db']:+.2f} dB (at most 0.3: {ts['bar']['psnr_cost_ok']}).", ""]
     return L

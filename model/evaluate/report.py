@@ -5,7 +5,7 @@ module a *raw* record (plain data, JSON-able) plus the images of each scene. Thi
 
 - ``report.json``: every raw number (per method, per scene: metrics and timed parts), the summaries, the
   equal-quality speed-ups, scaling and temporal numbers, machine, versions and settings;
-- ``report.md``: the tables, the targets of issue 6 (printed, not asserted), and plain sentences on where the
+- ``report.md``: the tables, the default model's targets (printed, not asserted), and plain sentences on where the
   learned methods lose to Cycles + OIDN, by how much;
 - ``pareto.png``: PSNR against time (log axis), one curve per family, two panels: whole wall time here and
   each method's own cost;

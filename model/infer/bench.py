@@ -124,7 +124,7 @@ def bench(variants=None, models=(), sizes=("240x135",), threads=2, repeats=5, pr
     torch.set_num_threads(threads)
     sizes = [tuple(cliargs.parse_size(s)) for s in sizes]
     names = list(variants) if variants is not None else list(V.TRAINABLE) + ["linear"]
-    for name in names:  # every argument is checked before any timing (issue 13)
+    for name in names:  # every argument is checked before any timing
         if name not in V.VARIANTS:
             raise UserError(f"unknown variant {name!r}; known: {', '.join(V.VARIANTS)}")
     if out and not Path(out).expanduser().resolve().parent.is_dir():

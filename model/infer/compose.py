@@ -10,10 +10,10 @@ A model predicts its checkpoint's target (``Predictor.target``, ``channels.TARGE
 - ``ref_minus_rest`` (a shot fit's --learn-rest): composed as ``ref_diffuse``; the model learned Cycles' image
   minus EEVEE's rest, so its prediction also makes up for where EEVEE's rest falls short on diffuse-coloured
   surfaces.
-- ``ref_combined`` (GI-off one-render models without the Diffuse Direct pass, session 26): the SSGI image is
+- ``ref_combined`` (GI-off one-render models without the Diffuse Direct pass): the SSGI image is
   ``prediction + eevee_combined``, EEVEE's GI-off Combined image plus albedo x the light it lacks (signed: the
   prediction may take light away); albedo-0 pixels (metal, glass, sky) keep EEVEE's image.
-- ``ref`` (models before issue 14): the whole image; pixels where nothing was hit (``background``) show
+- ``ref`` (the first models): the whole image; pixels where nothing was hit (``background``) show
   EEVEE's Combined image (group ``eevee``).
 """
 from __future__ import annotations

@@ -93,7 +93,7 @@ class ContractPredictor:
     needs). Non-finite inputs are repaired by normalize's rule; ``last_repaired`` holds the pixel count.
     The output is clamped to [0, OUTPUT_BOUND * max(1, brightest value of the input light groups)], and is 0
     where the input albedo is black (diffuse surfaces with zero albedo reflect nothing; the demod/residual
-    heads do this by construction, the plain log head needs the rule: issue 7, case 4).
+    heads do this by construction, the plain log head needs the rule).
     Subclasses set ``multiple``, ``receptive_field`` and ``runtime``, and define ``_forward``."""
 
     runtime = "none"
@@ -106,7 +106,7 @@ class ContractPredictor:
         self.spec: tuple[str, ...] = tuple(meta["inputs"])
         self.required: tuple[str, ...] = ch.required_groups(self.spec)
         self.arch = dict(meta["arch"])
-        # what it predicts: the whole image ("ref", models before issue 14 name none) or the diffuse part
+        # what it predicts: the whole image ("ref", the first models name none) or the diffuse part
         self.target = ch.check_target(self.arch.get("target", ch.TARGET_GROUP))
         self.kind = meta.get("kind", "network")
         self.tile = tile

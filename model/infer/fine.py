@@ -1,4 +1,4 @@
-"""Near emitters, the network at the output resolution (bpy-free, numpy only; issue 15, docs/working_res.md).
+"""Near emitters, the network at the output resolution (bpy-free, numpy only; docs/working_res.md).
 
 Why: beside an emitter tens of times brighter than its surround, the network run at 1/4 of 960x540 predicts far
 more light than the surround gets in the blocks next to the emitter (the Cornell box's ceiling round its panel:

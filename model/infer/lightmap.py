@@ -1,7 +1,7 @@
 """A shot's lightmap: a small world-space field of diffuse light, fitted to one scene's views (bpy-free, numpy).
 
-The shot fit (`cli.py fit --frames`, issue 16) learns a screen-space network from views of one scene. Its errors on
-frames it never saw are smooth biases over large surfaces (a wall a little too bright, docs/fit_shot.md), because a
+The shot fit (`cli.py fit --frames`) learns a screen-space network from views of one scene. Its errors on
+frames it never saw are smooth biases over large surfaces (a wall a little too bright, docs/fit.md), because a
 screen-space network only knows what the frame shows. Every view of a shot looks at the same walls, though: the
 diffuse light on a static surface is a function of where the surface is and which way it faces. The lightmap is
 that function, learned from the views (model/learn/lightmap.py): an MLP of the world position (Fourier features,
@@ -16,14 +16,13 @@ by the albedo). At render time:
 3. ``Lightmap.apply(part, groups, M, P)``: the network's diffuse part blended with albedo x that light, with weight
    ``lam`` where the blend is safe and 0 elsewhere: pixels with a (near-)black albedo channel (metal, emitters) and
    pixels where nothing was hit. ``lam`` is chosen by the fit on its validation views; 0 means the lightmap is not
-   used. Sessions 15-26 also kept the network on the ``edges`` (the two pixels of a depth discontinuity or crease,
-   or a 3 x 3 neighbourhood where the normal or the albedo changes: anti-aliased silhouettes and textures, where one
-   light per pixel is wrong); session 27 measured that rule costing every shot fit's withheld frames 0.9-4.8 dB
+   used. The lightmap is blended on the ``edges`` too (the two pixels of a depth discontinuity or crease, or a
+   3 x 3 neighbourhood where the normal or the albedo changes: anti-aliased silhouettes and textures, where one
+   light per pixel is wrong): keeping the network there cost every shot fit's withheld frames 0.9-4.8 dB
    (the network's own light on every edge and every texture: bright lines along a room's corners, a checker
-   armchair left to the network), so the lightmap is blended there too (``blend_weight(network_on_edges=True)``: the old
-   rule).
+   armchair left to the network); ``blend_weight(network_on_edges=True)`` keeps that rule for comparison.
 
-**Known light** (``known``, session 16): a field can instead learn the light *minus* the frame's own direct light,
+**Known light** (``known``): a field can instead learn the light *minus* the frame's own direct light,
 passes the render path renders anyway (``direct_soft`` or ``direct``, ``emit_direct``: ``KNOWN_CANDIDATES``); at render
 time it adds them back, ``light = max(sum of the known groups + field, 0)``. Direct light, with its shadows, then
 comes from each frame's own rasterized passes, so a moving object's shadow moves with it, and the field holds only
@@ -136,8 +135,8 @@ def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray, normals: bo
     z = z[..., 0] if z.ndim == 3 else z
     # depth: 1/z is linear across the screen on a plane, so its second difference (relative to 1/z) is ~0 on any
     # flat face, however grazing, and large at a silhouette or a crease; a jump between two pixels gives a large
-    # second difference at both (the two pixels an anti-aliased edge mixes), so no further spread (session 16: the
-    # 3 x 3 spread of session 15 kept 4-pixel bands from the lightmap, -0.05 to -0.23 dB on the withheld frames)
+    # second difference at both (the two pixels an anti-aliased edge mixes), so no further spread (a
+    # 3 x 3 spread kept 4-pixel bands from the lightmap, -0.05 to -0.23 dB on the withheld frames)
     iz = 1.0 / np.maximum(np.nan_to_num(z, nan=1e30, posinf=1e30), 1e-3)
     ip = np.pad(iz, 1, mode="edge")
     d2 = np.maximum(np.abs(ip[1:-1, :-2] + ip[1:-1, 2:] - 2 * iz), np.abs(ip[:-2, 1:-1] + ip[2:, 1:-1] - 2 * iz))
@@ -153,7 +152,7 @@ def edges(depth: np.ndarray, normal: np.ndarray, albedo: np.ndarray, normals: bo
 
 def blend_weight(groups: dict, lam: float, network_on_edges: bool = False) -> np.ndarray:
     """HxW float32: where and how much the lightmap replaces the network (module doc). ``network_on_edges``: not on
-    ``edges`` either (sessions 15-26's rule; session 27 measured it costing every shot fit 0.9-4.8 dB)."""
+    ``edges`` either (for comparison: that rule costs every shot fit 0.9-4.8 dB)."""
     from ..images import geometry_mask
     alb = np.asarray(groups["albedo"], np.float32)[..., :3]
     ok = geometry_mask(groups["depth"], groups["normal"]) & (alb > ALBEDO_MIN).all(-1)

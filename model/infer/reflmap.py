@@ -2,7 +2,7 @@
 (bpy-free, numpy).
 
 A diffuse-part model's image is its prediction + EEVEE's rest (compose.py), so EEVEE's own reflections bound it. On
-issue 10's Cornell box shot they bound it at 33.8 dB (docs/fit_shot.md, session 19): EEVEE's mirror ball traces its
+the Cornell box shot they bound it at 33.8 dB (docs/fit.md): EEVEE's mirror ball traces its
 reflections in screen space, and what the ball reflects lies mostly off screen (the walls beside and behind the
 camera, the floor under the ball), where EEVEE falls back to the world (black); the ball held 71-96 % of the
 ceiling's squared error. Every view of a shot sees the same room, though: what a static mirror reflects is a
@@ -15,8 +15,8 @@ of the artist-settings render (channels group ``gloss``): a metal's colour, 0 on
 The map learns from the glossy pixels that are not an edge (lightmap.edges, with gloss in place of the albedo: an
 anti-aliased silhouette mixes two surfaces, so its reflected direction is no one surface's; not the normal test,
 which marks a whole small mirror ball at 96x54). At render time (``ReflectionMap.apply(rest, groups, M, P)``) it
-corrects every pixel whose gloss exceeds ``GLOSS_MIN`` in some channel and where something was hit, the edges too
-(session 20): a silhouette pixel's Glossy Color is already weighted by how much of it the mirror covers, and left to
+corrects every pixel whose gloss exceeds ``GLOSS_MIN`` in some channel and where something was hit, the edges too:
+a silhouette pixel's Glossy Color is already weighted by how much of it the mirror covers, and left to
 EEVEE the Cornell ball's 1-2 px silhouette stayed dark (EEVEE reflects the black world at grazing angles); on the
 Cornell one-render fit's 7 validation views the 1,435 edge pixels scored 19.27 dB uncorrected and 26.04 dB
 corrected, and the ceiling rose from 37.13 to 39.24 dB (benchmarks/reflmap_edges.py --val, docs/one_render.md). For those pixels

@@ -1,7 +1,7 @@
 """Temporal mode (bpy-free, numpy): reproject earlier frames with EEVEE's motion vectors, blend them into the
-current prediction, and measure the flicker that is left (issue 16).
+current prediction, and measure the flicker that is left.
 
-**Blender 5.0's Vector pass (EEVEE), measured** (/work/wt16/temporal_notes.md; tests/blender/test_temporal.py
+**Blender 5.0's Vector pass (EEVEE), measured** (tests/blender/test_temporal.py
 checks it): 4 channels X, Y, Z, W in PIXELS of the render, x to the right, y UP (the image's bottom-up
 convention; our arrays are top row first, so a row offset is -Y).
 - (X, Y) = position of the pixel's surface point in the PREVIOUS frame minus its position now;
@@ -191,7 +191,7 @@ def blend(part: np.ndarray, albedo: np.ndarray, history: list[tuple[np.ndarray, 
     history can smooth what flickers within the present frame's local range, never drag a moved shadow or a
     change of light along (lag); a history equal to the present is inside that range and stays exact. ``signed``: a
     ref_combined model's part (the light it adds to EEVEE's image, negative where it takes light away: not clamped at
-    0, which brightened the contact shadows an unshadowed emitter proxy leaves too bright; session 26)."""
+    0, which brightened the contact shadows an unshadowed emitter proxy leaves too bright)."""
     part = np.asarray(part, np.float32)
     if not history:
         return part

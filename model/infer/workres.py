@@ -1,6 +1,6 @@
 """Prediction at a working resolution (bpy-free, numpy only: the torch and the ONNX backends share it).
 
-The network runs on a G-buffer reduced by an integer factor ``f`` (issue 15); what it predicts comes back to
+The network runs on a G-buffer reduced by an integer factor ``f``; what it predicts comes back to
 the output resolution as *diffuse light* guided by the full-resolution G-buffer:
 
 1. ``reduce_groups(groups, f)``: every group is reduced to ceil(H/f) x ceil(W/f).
@@ -49,7 +49,7 @@ from ..errors import UserError
 
 FULL = "full"
 AUTO = "auto"
-# "auto" (docs/working_res.md, session 31): full resolution below AUTO_MIN_WIDTH; from there a one-render model (the
+# "auto" (docs/working_res.md): full resolution below AUTO_MIN_WIDTH; from there a one-render model (the
 # frame that must cost no more than EEVEE's GI) at 1/AUTO_FACTOR, any other model at the largest factor that keeps
 # the working image AUTO_WORK_WIDTH wide (1/2 at 960, 1/4 at 1920): the default model at 1/4 of 960x540 lost 0.47 dB
 # to full resolution on the artist exterior, 0.14 at 1/2 and 0.23 at 1/4 of 1920x1080

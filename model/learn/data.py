@@ -68,7 +68,7 @@ def _groups_for(spec, target: str = ch.TARGET_GROUP) -> tuple[str, ...]:
 
 def default_target(manifest: dict) -> str:
     """What a model trained on this dataset learns unless told: the diffuse part (``ref_diffuse``) when the
-    samples hold it, else the whole image (``ref``, every dataset baked before issue 14)."""
+    samples hold it, else the whole image (``ref``, the first datasets)."""
     return ch.DIFFUSE_TARGET if ch.DIFFUSE_TARGET in folder.stored_groups(manifest) else ch.TARGET_GROUP
 
 

@@ -17,7 +17,7 @@
    the weight with the best pooled PSNR against the views' references is kept (0: the lightmap is not used), or a
    higher one within ``TIE_DB`` of it.
 
-Measured on the two benchmark shots in docs/fit_shot.md (session 15).
+Measured on the two benchmark shots in docs/fit.md.
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ LR = 2e-3
 LAMBDAS = (0.0, 0.25, 0.5, 0.75, 1.0)
 # a higher weight within this many dB of the best validation PSNR is preferred: the validation views share their
 # frames with training views (jittered cameras), where the network is relatively better than on frames no view saw
-# (session 16, docs/fit_shot.md: on both shots' withheld frames the best weight was at or above the one validation
+# (docs/fit.md: on both shots' withheld frames the best weight was at or above the one validation
 # chose, by up to 0.5)
 TIE_DB = 0.1
 MIN_POINTS = 1000

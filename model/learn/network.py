@@ -14,7 +14,7 @@ LOSS SPACE: ``log1p`` of linear HDR RGB (N x 3 x H x W). ``to_linear`` maps it b
               adds, albedo * (expm1(s) - b), may be negative (down to -C where the albedo is above the floor).
     residual_combined_gloss  as residual_combined with albedo + gloss (EEVEE's Glossy Color pass, clamped to 1) in
               place of albedo: metal, whose albedo is 0, takes light too (the reflections of the room a GI-off
-              render lacks; session 29). Needs gloss in the inputs as well.
+              render lacks). Needs gloss in the inputs as well.
 
 ``demod``/``residual`` predict the irradiance ("shading") and multiply by albedo: an all-black albedo gives
 exactly 0, and ``residual`` starts from the direct light (o = 0 is the local-illumination image).
@@ -56,7 +56,7 @@ def _act():
 
 # the input groups each head reads itself (fit never drops them)
 HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
-              # one-render models (issue 15): the shading starts from EEVEE's own diffuse light, not the hard direct
+              # one-render models: the shading starts from EEVEE's own diffuse light, not the hard direct
               "residual_gi": ("albedo", "eevee_diffuse"),
               # GI-off one-render models: from EEVEE's diffuse light without its GI (lamps, emitter proxies, world)
               "residual_local": ("albedo", "eevee_local"),
@@ -207,7 +207,7 @@ BACKBONES = {"fssgi": (FSSGI, ("width", "pre", "post", "head")),
 
 def target_of(arch: dict) -> str:
     """What a network predicts (``channels.TARGETS``): its architecture's "target"; "ref" (the whole image)
-    for networks made before issue 14, which name none."""
+    for the first networks, which name none."""
     return ch.check_target(arch.get("target", ch.TARGET_GROUP))
 
 

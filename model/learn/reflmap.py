@@ -17,7 +17,7 @@ node's settings (groups ``rest`` and ``gloss``: a shot fit bakes them, ``bake --
    used). The network's diffuse prediction does not enter: the map changes only the rest, which the node adds to
    every prediction alike.
 
-``combined`` (a ref_combined model's map, session 27): such a model's image takes the map only where the albedo is
+``combined`` (a ref_combined model's map): such a model's image takes the map only where the albedo is
 below the head's floor (``reflmap.combined_weight``: metal, mirrors); elsewhere its network learned Cycles'
 reflections itself. Its points are then those pixels, their gloss x that weight, and its weight is chosen on the
 image it makes (base + lam x weight x the correction), so a map that helps the metal is not refused for what it

@@ -88,8 +88,7 @@ class Trainer:
 
     # ---- state -------------------------------------------------------------------------------------
     def _remove_stale_temps(self):
-        """Delete the temporary files a killed run left beside this run's outputs: this run owns those names
-        (issue 7, case 9)."""
+        """Delete the temporary files a killed run left beside this run's outputs: this run owns those names."""
         names = {p.name for p in (self.out, self.last, checkpoint.curve_path(self.out))}
         files.sweep(self.out.parent, owned=names.__contains__)
 

@@ -1,4 +1,4 @@
-"""Direct light as a network input beyond the hard-shadow G-buffer (issue 14, items 2 and 4).
+"""Direct light as a network input beyond the hard-shadow G-buffer.
 
 - ``render_soft_direct(scene, samples=...)``: EEVEE's Diffuse Direct pass with the lights at their REAL size
   (soft shadows), in the same direct-only set-up as ``passes.render_gbuffer`` (world lights nothing, light
@@ -273,7 +273,7 @@ def planar_emitters(scene) -> list[tuple]:
 
 # A side of a planar emitter that faces a surface closer than this fraction of the emitter's larger side, at its
 # centre and near each corner, gets no proxy (``open_sides``): a panel hung just under a ceiling gives off its back
-# light into the gap, where no camera sees it (issue 15's Cornell panel hangs 2 mm under the ceiling, 0.4 % of its
+# light into the gap, where no camera sees it (the artist test set's Cornell panel hangs 2 mm under the ceiling, 0.4 % of its
 # 0.5 m side). Such a proxy still costs EEVEE's render its light evaluation at every pixel, and, unshadowed (the
 # GI-off one render's), leaks light through the ceiling onto whatever lies above it.
 BLOCKED_GAP = 0.02
@@ -338,7 +338,7 @@ def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     sides; with ``sides`` "open" only for a side that faces open space, ``open_sides``: none for a side pressed
     against a surface), of the emitter's colour and power ``pi x strength x area`` (the power of a Lambertian surface of
     that radiance); its specular factor 1, so that glossy surfaces and mirrors show the panel's highlight as
-    Cycles does. Measured on issue 10's Cornell box with its emissive panel (docs/fit_shot.md, session 18): the
+    Cycles does. Measured on the artist test set's Cornell box with its emissive panel (docs/fit.md): the
     ceiling of a diffuse-part model (Cycles' diffuse part + EEVEE's rest) rose from 29.4 to 34.5 dB on
     withheld frames. Yields the proxy objects."""
     import math

@@ -9,7 +9,7 @@ Contract (used by the baker and the compositor node):
   (point/spot radius 0, sun angle 0, area lights shrunk to ~1 cm keeping their aspect), restores all of that
   afterwards, and returns the groups top row first with normals in CAMERA space. Asked for ``rest`` at the
   same samples (the render path), it reads albedo, normal, depth and emission from that artist-settings render
-  (``SHARED_GROUPS``: bit-identical, docs/pass_cost.md); ``last_timings`` has each render's seconds. That
+  (``SHARED_GROUPS``: bit-identical, docs/one_render.md); ``last_timings`` has each render's seconds. That
   render writes no Emission pass where no used material can emit (``SKIP_EMPTY_EMISSION``: zeros, exact), and a
   one-render model's frame writes no Normal pass: its normals come from the Z pass (``NORMALS_FROM_DEPTH``).
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
@@ -38,21 +38,21 @@ from ...model.errors import UserError
 # group -> Blender render pass name (the channel spec's Group.render_pass)
 PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
 # groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
-# input of one-render models; issue 15, docs/one_render.md)
+# input of one-render models; docs/one_render.md)
 # eevee_combined: that render's Combined image (RGB), the input of GI-off one-render models without its Diffuse Direct
-# pass (target ref_combined, session 26)
+# pass (target ref_combined)
 DIFFUSE_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")  # (its Diffuse Direct pass: what a rest needs too)
 REST_LIGHT_GROUPS = DIFFUSE_LIGHT_GROUPS + ("eevee_combined",)
-# whether the GI-off one render's emitter proxies cast shadows: no (session 21, docs/one_render.md). On Mesa their
+# whether the GI-off one render's emitter proxies cast shadows: no (docs/one_render.md). On Mesa their
 # shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 at 16 samples (benchmarks/pass_cost.py), and EEVEE's
 # soft shadows at 16 samples are noisy where the network passed the noise on; the network and the shot's lightmap
-# put the shadows back: withheld frames 38.15 dB unshadowed against 37.79 shadowed (same session, same command).
+# put the shadows back: withheld frames 38.15 dB unshadowed against 37.79 shadowed (same run, same command).
 # Models baked before record no setting and keep shadowed proxies (recorded_proxy_shadows).
 PROXY_SHADOWS_LOCAL = False
 # which sides of a planar emitter get a proxy in the GI-off one render: "open", only those facing open space
-# (direct_light.open_sides; session 23: the Cornell panel, 2 mm under the ceiling, gets one proxy, not two); "both",
-# every side (the rest render of the other models, and the one-render models baked before session 23, which record
-# no setting: recorded_proxy_sides)
+# (direct_light.open_sides: the Cornell panel, 2 mm under the ceiling, gets one proxy, not two); "both",
+# every side (the rest render of the other models, and the one-render models baked without
+# this setting: recorded_proxy_sides)
 PROXY_SIDES_LOCAL = "open"
 # how the one render of each kind of one-render model is made: (ray tracing + fast GI, emitter proxies, the proxies'
 # shadows). eevee_diffuse: both on, no proxies (the models trained on it, docs/one_render.md); eevee_local: both off,
@@ -256,7 +256,7 @@ def _point_sampled(scene):
 
 # the codec of the multilayer EXR each render is read back through: none. The file lives only for its save and read
 # (or, kept, for the compositor's stand-in, keep_render_file): at 960x540 with a one-render frame's seven passes,
-# ZIP took 0.17 s to save and 0.09 s to read, no compression 0.04 s and 0.04 s (42 MB instead of 1.7; session 24,
+# ZIP took 0.17 s to save and 0.09 s to read, no compression 0.04 s and 0.04 s (42 MB instead of 1.7;
 # docs/one_render.md). A 16-bit file would be smaller still but the Depth pass is 32-bit float (only 0.01 % of its
 # values survive a round to half), so the depth stays 32.
 SCRATCH_EXR_CODEC = "NONE"
@@ -340,7 +340,7 @@ def keep_render_file():
     """Inside, the last render's read-back EXR (all its passes) is left on disk, its path in the yielded
     ``KeptRender`` (an earlier render's file is removed when the next one is made): the render path loads it as the
     compositor's stand-in for the Render Layers node instead of saving the same Render Result a second time (0.17 s
-    at 960x540; session 24). ``render_gbuffer`` makes the artist-settings render last, so the file is that render's.
+    at 960x540). ``render_gbuffer`` makes the artist-settings render last, so the file is that render's.
     The caller removes the file; on an exception it is removed here. As every read-back file, it is made only after
     its render returns, named by process (docs/hard_cases.md)."""
     kept = KeptRender()
@@ -374,7 +374,7 @@ def casts_no_shadow(scene) -> bool:
 # machine's Mesa EEVEE's shadow pipeline costs about two thirds of a render even when no light casts a shadow (Cornell
 # shot, 480x270, 16 samples: 26.3 CPU s with shadows on against 8.0 off, EEVEE GI; the GI-off one render with its
 # unshadowed proxy 29.0 against 10.7), and the image is the same to the bit (max |difference| 0 in every pass;
-# session 24, docs/one_render.md). The baseline EEVEE GI render of the reports keeps the scene's own setting.
+# docs/one_render.md). The baseline EEVEE GI render of the reports keeps the scene's own setting.
 SKIP_UNUSED_SHADOWS = True
 # whether the last _render turned the shadows off (casts_no_shadow); whether the last render_rest left the Emission
 # pass out (SKIP_EMPTY_EMISSION)
@@ -382,15 +382,15 @@ last_render = {"shadows_skipped": False, "emission_skipped": False, "normals_fro
 # Whether render_rest leaves the Emission pass out where no used material of the file can write it
 # (direct_light.materials_may_emit) and gives the emission group as zeros: yes. The pass is black to the bit there
 # (tests/blender/test_pass_merge.py), and on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of
-# 22.5 (session 30, benchmarks/pass_flags.py; docs/one_render.md).
+# 22.5 (benchmarks/pass_flags.py; docs/one_render.md).
 SKIP_EMPTY_EMISSION = True
 # Whether a one-render frame (render_gbuffer's normals=None for a one-render model's groups) takes its normals from
 # the Z pass (model/images.normals_from_depth: the geometric normals) instead of writing EEVEE's Normal pass: yes.
 # On Mesa the Normal pass cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 alone and about 0.5 beside
-# the Diffuse Color and Z passes, of the 4.1 that EEVEE's own GI costs there (session 30, benchmarks/pass_flags.py;
+# the Diffuse Color and Z passes, of the 4.1 that EEVEE's own GI costs there (benchmarks/pass_flags.py;
 # the frame then came out at 0.978x plain EEVEE GI, benchmarks/pass_cost.py); the two normals differ by a median
 # 0.02-1.8 degrees on the artist test set, and the shipped one-render model scores 22.31 dB there at 320x180 with
-# either (session 31; session 30's 22.43 came from world pixels given a far plane's normal, fixed by the clip end in
+# either (world pixels get a zero normal, as in the Normal pass: the clip end in
 # _normals_from_depth; docs/one_render.md). Bakes keep the pass (bake.py asks normals="pass"), and so do the frames of a model with a
 # shot's lightmap or reflection map, which read each pixel's own normal (pipeline/render.py).
 NORMALS_FROM_DEPTH = True
@@ -588,7 +588,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     highlights and reflections the rest holds are lit by the same lamps as the predicted diffuse light. At the
     scene's own threshold (Blender's default 0.01) the artist test set's studio rendered 16 % darker (Combined
     mean 0.312 against 0.374; 95 % of the pixels differ by more than 0.01) and its gold sphere reflected a dim
-    floor (docs/artists.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
+    floor (docs/channels.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
     pass, EEVEE's own diffuse light) or ``eevee_local`` (the same pass, of a GI-off render). ``gi`` True / False
     switches ray tracing and fast GI on / off whatever the scene says (their other settings stay the artist's):
     the one-render models were trained on EEVEE's diffuse light with both on (``eevee_diffuse``) or both off
@@ -688,9 +688,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     ``rest`` is the artist's own render (``render_rest`` at ``rest_samples``, default the scene's), rendered
     last, so that the Render Result left behind is that render (render.py saves it for the artist's compositor
     tree). With ``merge`` and ``rest`` at the G-buffer's samples, the ``SHARED_GROUPS`` come from the rest
-    render (bit-identical; docs/pass_cost.md), and the direct-only render is made only for what is left
+    render (bit-identical; docs/one_render.md), and the direct-only render is made only for what is left
     (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``; 1 changes ``direct`` on edges
-    and was measured, not made the default: docs/pass_cost.md). ``last_timings`` holds each render's seconds,
+    and was measured, not made the default: docs/one_render.md). ``last_timings`` holds each render's seconds,
     ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
     from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
     for it, the SHARED_GROUPS (and the motion vectors) come from that render whatever the samples, so that a

@@ -24,7 +24,7 @@ DEFAULT_REF_SAMPLES = 4096
 # variance), so the bake stops at the first doubling where psnr(half A, half B) + 3.01 >= the target, or at
 # DEFAULT_REF_SAMPLES. Each sample's samples and estimated agreement go into the manifest; the estimate is checked
 # against two independent references in benchmarks/ref_target.py (docs/bake.md). 0 = a fixed sample count.
-# The issue asks for 40 dB; the default aims 1 dB higher because the estimate is itself measured: at 240x135 it
+# The bar is 40 dB; the default aims 1 dB higher because the estimate is itself measured: at 240x135 it
 # came within 0.1 dB of the truth, and one room estimated at 40.01 measured 39.99.
 DEFAULT_REF_TARGET_DB = 41.0
 REF_START_SAMPLES = 256  # the first two halves: 128 spp each

@@ -1,4 +1,4 @@
-"""What the SSGI render path cannot handle in an artist's scene (issue 14, "Bad input"), found before it renders.
+"""What the SSGI render path cannot handle in an artist's scene ("Bad input"), found before it renders.
 
     findings = check_scene(scene, spec, target)   # [Finding(code, message, fatal)]
 

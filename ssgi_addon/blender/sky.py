@@ -3,7 +3,7 @@ world's L1 spherical harmonics and the normal pass, without a render of the scen
 
 The world is rendered into a small equirectangular image by Cycles, in a scene of its own that holds only a
 panoramic camera (the artist's scene is not touched): ENV_SIZE at ENV_SAMPLES samples, 0.5-1.3 s on 2 cores
-(session 29; a Sky Texture world the most). A world that lights nothing (``passes.world_is_black``) costs no render.
+(a Sky Texture world the most). A world that lights nothing (``passes.world_is_black``) costs no render.
 The coefficients are kept for the world as it is (``fingerprint``: its node tree's nodes, their settings, socket
 values and links, at the current frame), so the frames of an animation pay that render once, as EEVEE pays its shader
 compilation once; any change to the world makes a new one.

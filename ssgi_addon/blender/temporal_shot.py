@@ -1,4 +1,4 @@
-"""The default shot of the temporal measure (issue 16), built in code: 24 frames of a camera that dollies and pans
+"""The default shot of the temporal measure, built in code: 24 frames of a camera that dollies and pans
 through an open-front room while a cube crosses it and the floor ripples (a Wave modifier: a deforming mesh).
 The report (``cli.py report --shot`` without a file) and benchmarks/temporal.py use it; a shot .blend of one's
 own replaces it."""

@@ -14,7 +14,7 @@ shots the artist renders.
     plan = make_views(scene, views=24, seed=0)        # jittered cameras added to the OPEN file (a copy of it)
     train, val, test = split_views(data_dir, plan)   # held-out views by camera, once baked
 
-A shot (``frames=(A, B)``, issue 16): ``N_WITHHELD`` whole frames spread over A..B are withheld for the test
+A shot (``frames=(A, B)``): ``N_WITHHELD`` whole frames spread over A..B are withheld for the test
 (``plan["test_frames"]``: the scene camera there, as the node renders it, is scored after the fit; nothing
 at those frames is baked), and every baked frame (``plan["frames"]``, the scene cameras plus jittered ones
 near them) lies more than ``GAP`` frames from each withheld frame. The jittered cameras are then train or

@@ -127,7 +127,7 @@ def register_cli(sub) -> None:
                    metavar="KIND",
                    help="fit a GI-off one-render model: each frame of the node is then ONE EEVEE render with ray "
                         "tracing and fast GI off (the network and the shot's lightmap give the GI), at about the cost of "
-                        "EEVEE's own GI render at the same samples (issue 15, docs/one_render.md); the views hold that "
+                        "EEVEE's own GI render at the same samples (docs/one_render.md); the views hold that "
                         "render's passes and the fit trains small networks from scratch on them. KIND: combined (the "
                         "default) reads its Combined image, so the frames render no Diffuse Direct pass (a glossy "
                         "shot's reflection map then corrects only where the albedo is black: metal, mirrors); local "

@@ -1,4 +1,4 @@
-"""`cli.py report`: the speed-against-error report (issue 6), headless: the report stage
+"""`cli.py report`: the speed-against-error report, headless: the report stage
 (ssgi_addon/pipeline/report.py) behind argparse.
 
     cli.py report --data DIR --models M1.pt M2.pt ... --out DIR [--max-scenes N] [--spp 1,2,4,...]

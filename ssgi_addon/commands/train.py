@@ -135,7 +135,7 @@ def register_cli(sub) -> None:
     p.add_argument("--target", choices=ch.TARGETS, default=None,
                    help="what the network learns: ref_diffuse, the diffuse part of the Cycles image, which the render "
                         "path adds to EEVEE's own emission, reflections and glass (default when the dataset holds it), "
-                        "ref, the whole image (datasets baked before issue 14), or ref_minus_rest, the Cycles image "
+                        "ref, the whole image (the first datasets), or ref_minus_rest, the Cycles image "
                         "minus EEVEE's rest, composed as ref_diffuse (it also makes up for EEVEE's rest on "
                         "diffuse-coloured surfaces; needs samples with rest, as a fit's views)")
     p.add_argument("--minutes", type=float,

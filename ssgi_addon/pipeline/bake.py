@@ -30,12 +30,12 @@ CYCLES_SAMPLE_GROUPS = ("ref", "ref_diffuse")
 # (nor the render path's extras: the motion vectors are not a network input)
 BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS
                           if g not in ("rest",) + passes.EXTRA_GROUPS + passes.REST_ONLY_GROUPS)
-# (sky, the world's L1 light at the normal: only the one-render bakes hold it, session 29)
+# (sky, the world's L1 light at the normal: only the one-render bakes hold it)
 BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_GROUPS + ("sky",)) + CYCLES_SAMPLE_GROUPS
-# a one-render bake (--gi-samples N; issue 15, docs/one_render.md): what one-render models read, all of it from
+# a one-render bake (--gi-samples N; docs/one_render.md): what one-render models read, all of it from
 # the artist-settings render at N samples with ray tracing and fast GI on (eevee_diffuse, albedo, normal, depth,
 # emission) and the image composed from it (rest); surround (ray casts); sky (the world's L1 light at the normal,
-# no render of the scene; session 29); the 1-sample direct-only raster's
+# no render of the scene); the 1-sample direct-only raster's
 # direct, ao and eevee (groups every sample holds; cheap); the references. No world, direct_soft, emit_direct:
 # those three renders are what a one-render model does without.
 ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission", "eevee", "surround", "sky",
@@ -44,7 +44,7 @@ ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission
 # GI off and the emitter proxies on (passes.ONE_RENDER_MODES), its Diffuse Direct stored as eevee_local, and its Glossy
 # Color (gloss, for a shot's reflection map)
 # "combined": the same GI-off render as "local", its Combined image stored as eevee_combined (what ref_combined models
-# read instead of the Diffuse Direct pass, session 26) beside its eevee_local and gloss (the fit's report and maps)
+# read instead of the Diffuse Direct pass) beside its eevee_local and gloss (the fit's report and maps)
 ONE_RENDER_KINDS = {"gi": "eevee_diffuse", "local": "eevee_local", "combined": "eevee_combined"}
 # ... and the groups of the one render each kind stores besides its light, rest and the shared groups
 ONE_RENDER_EXTRA = {"gi": (), "local": ("gloss",), "combined": ("eevee_local", "gloss")}
@@ -189,7 +189,7 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     w, h = int(size[0]), int(size[1])
     _check_args(w, h, count, ref_samples, shard, scenes, mode)
     target = resolve_ref_target(ref_target_db, denoise)
-    if target is not None and ref_samples < 2:  # no halves to compare: refuse before any work (issue 13)
+    if target is not None and ref_samples < 2:  # no halves to compare: refuse before any work
         raise UserError(f"--ref-samples {ref_samples}: the {target:g} dB reference target compares two halves, so it "
                         "needs at least 2 samples; give --ref-samples 2 or more, or --ref-target-db 0 for a fixed count")
     if scenes and scene is not None:

@@ -9,7 +9,7 @@
 3. ``views.split_views`` holds out views by camera; ``model.learn.fit.fit`` searches the size, drops inputs and
    writes MODEL and its report (bpy-free).
 
-A shot (``frames=(A, B)``, ``cli.py fit --frames A-B``; issue 16): the views are baked at frames of A..B away
+A shot (``frames=(A, B)``, ``cli.py fit --frames A-B``): the views are baked at frames of A..B away
 from ``views.N_WITHHELD`` withheld frames (ssgi_addon/blender/views.py), and after the fit
 ``render_withheld`` renders those frames as the node does (``RenderSession`` with the fitted model, at the
 views' size and the file's EEVEE samples; the generic model on the same passes through the same working-
@@ -46,7 +46,7 @@ MIN_FIT_MINUTES = 0.5
 # fitted models' error (25-35 dB).
 FIT_REF_SAMPLES = 16
 # a shot's lightmap trains for this share of the training budget, at most LIGHTMAP_MAX_S (its loss flattens after
-# about 2 minutes on the benchmark shots, docs/fit_shot.md)
+# about 2 minutes on the benchmark shots, docs/fit.md)
 LIGHTMAP_SHARE = 0.2
 LIGHTMAP_MAX_S = 150.0
 # a shot's reflection map (model/infer/reflmap.py) trains for this share of the training budget, at most REFLMAP_MAX_S
@@ -55,7 +55,7 @@ REFLMAP_MAX_S = 60.0
 # a second starting checkpoint for shot fits (the model shipped before the current one, commit b52fc1b; its
 # metadata beside it): on the room shot it fine-tunes to 28.16 dB val (withheld frames 32.88 dB) where the shipped
 # model reaches 25.87 (28.68), the same 5 minutes on the same views; on the living room the two are level
-# (docs/fit_shot.md, session 17). A shot fit probes both and goes on with the better on the val views.
+# (docs/fit.md). A shot fit probes both and goes on with the better on the val views.
 FIT_START_MODEL = Path(__file__).resolve().parents[2] / "models" / "ssgi_fit_start.pt"
 
 
@@ -66,7 +66,7 @@ def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
     checkpoint (ladder ``[]``) towards the shot bar (``fit_report.SHOT_BAR_DB``) unless ``--ladder`` /
     ``--target-psnr`` say otherwise: on the room shot, same 21 baked views and ~10.7 min of training, the default
     ladder (three scratch networks and the fine-tune sharing half the budget, the fine-tune 42 s; a scratch network
-    kept) scored 31.41 dB on the withheld frames, the fine-tune alone (301 s) 32.72 dB (docs/fit_shot.md). Still scenes keep the ladder
+    kept) scored 31.41 dB on the withheld frames, the fine-tune alone (301 s) 32.72 dB (docs/fit.md). Still scenes keep the ladder
     (smaller scratch networks predict 2-4x faster there, docs/fit.md). ``(None, None)``: the model's defaults."""
     from ...model.evaluate.fit_report import SHOT_BAR_DB
     ladder, target = cfg.ladder, cfg.target_psnr
@@ -82,12 +82,12 @@ ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_local,glow,surround"
 ONE_RENDER_HEAD = "residual_local"
 # ... of each kind (--one-render KIND): "local" reads the render's Diffuse Direct pass (eevee_local) and is composed
 # with its rest; "combined" reads its Combined image instead (eevee_combined: no Diffuse Direct pass in the frame's
-# render, session 26), learns target ref_combined with head residual_combined and is composed as that image + its
+# render), learns target ref_combined with head residual_combined and is composed as that image + its
 # prediction. {kind: (inputs, head, target: None = the views' default ref_diffuse)}
 ONE_RENDER_FITS: dict[str, tuple[str, str, str | None]] = {
     "local": (ONE_RENDER_INPUTS, ONE_RENDER_HEAD, None),
     "combined": ("albedo,normal,depth,emission,eevee_combined,glow,surround", "residual_combined", ch.COMBINED_TARGET)}
-# the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined since session 27
+# the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined
 # (withheld frames of three shots, docs/one_render.md, with the lightmap on edges: room 37.56 against local 36.56 dB,
 # Cornell 39.16 against 38.54, living room 36.50 against 29.16; and its frames render one pass fewer)
 ONE_RENDER_DEFAULT = "combined"
@@ -142,17 +142,17 @@ class FitSceneConfig:
     seed: int = 0
     frames: tuple[int, int] | None = None  # a shot A..B: withhold whole frames for the test (module doc)
     # learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: the fitted
-    # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit_shot.md, "Learning the rest")
+    # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit.md, "Learning the rest")
     learn_rest: bool = False
     # with learn_rest or a shot's reflection map: the samples of the views' rest (None: the scene's own EEVEE samples,
-    # as the node renders it; fewer make the bake cheaper, docs/fit_shot.md)
+    # as the node renders it; fewer make the bake cheaper, docs/fit.md)
     rest_samples: int | None = None
     # a shot fit also fits a lightmap (model/infer/lightmap.py) beside the model, when its views allow (off: --no-lightmap)
     lightmap: bool = True
     # ... and a reflection map (model/infer/reflmap.py) when its views show glossy surfaces: the views then hold
     # EEVEE's rest and Glossy Color at the node's settings (off: --no-reflmap)
     reflmap: bool = True
-    # a GI-off one-render model (issue 15, docs/one_render.md): the views hold only what one EEVEE render with ray
+    # a GI-off one-render model (docs/one_render.md): the views hold only what one EEVEE render with ray
     # tracing and fast GI off gives (eevee_local, albedo, normal, depth, emission, rest, gloss; passes.ONE_RENDER_MODES),
     # scratch networks learn from it, and each frame of the node is that one render. A kind (ONE_RENDER_FITS; True:
     # ONE_RENDER_DEFAULT): "combined" reads that render's Combined image (head residual_combined), so the node's frames

@@ -102,7 +102,7 @@ def output_path(scene, frame: int, out: str | None = None, single: bool = False)
 
 def atomic_save_render(scene, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    files.sweep(path.parent, owned=lambda n: n == path.name)  # a killed render's (issue 7, case 9)
+    files.sweep(path.parent, owned=lambda n: n == path.name)  # a killed render's
 
     def save(tmp):
         bpy.data.images["Render Result"].save_render(str(tmp), scene=scene)

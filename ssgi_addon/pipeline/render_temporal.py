@@ -1,4 +1,4 @@
-"""The temporal mode of the render path (issue 16): which earlier frames a frame blends, where their stateless
+"""The temporal mode of the render path: which earlier frames a frame blends, where their stateless
 predictions come from, and the blend itself (model/infer/temporal.py, model/infer/history.py).
 
 - Setting: ``"auto"`` (on when the session renders more than one frame), ``"on"``, ``"off"``: the session's

@@ -1,4 +1,4 @@
-"""The report stage (issue 6): speed against error, every method on the same scenes, timed.
+"""The report stage: speed against error, every method on the same scenes, timed.
 
     summary = run(ReportConfig(models=["a.pt", "b.pt"], out="out/report", data="dataset/"))
     summary = run(ReportConfig(models=[...], out=..., scenes=["shot.blend"], size=(240, 135)))
@@ -161,7 +161,7 @@ def run(cfg: ReportConfig, progress=None, should_stop=None) -> dict:
     preds = [(p, WorkingResolution(pr, cfg.working_res)) for p, pr in preds]
     n_net = sum(1 for _, pr in preds if pr.kind != "linear")
     if n_net < 3:
-        notes.append(f"only {n_net} network size(s) given; issue 6 asks for at least 3 (small to large)")
+        notes.append(f"only {n_net} network size(s) given; the report wants at least 3 (small to large)")
 
     if cfg.scenes:
         scenes, over, n2 = _bake_scenes(cfg, out)

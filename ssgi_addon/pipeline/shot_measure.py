@@ -1,4 +1,4 @@
-"""The temporal measure of a shot (issue 16, item 1): every frame of the shot by each method, the converged
+"""The temporal measure of a shot: every frame of the shot by each method, the converged
 reference, and per method the warped flicker (model/infer/temporal.py ``warped_change``) and the PSNR.
 
     res = measure(scene, frames, model=None, ref_samples=64)   # res["methods"][name] = {warped, psnr, ...}

@@ -1,8 +1,8 @@
 """Add the ``surround`` group (ssgi_addon/blender/surround.py), or the ``sky`` group (ssgi_addon/blender/sky.py), to
 a dataset folder baked before it held it.
 
-    summary = add_group("/work/data/artist1")         # scripts/add_surround.py DIR [DIR ...]
-    summary = add_group("/work/data/artist1", "sky")  # scripts/add_surround.py --group sky DIR [DIR ...]
+    summary = add_group("data/artist1")         # scripts/add_surround.py DIR [DIR ...]
+    summary = add_group("data/artist1", "sky")  # scripts/add_surround.py --group sky DIR [DIR ...]
 
 Neither group needs a render of the scene (surround: rays cast from the camera; sky: the world's L1 light at the
 sample's stored normal, from a small Cycles image of the world alone): each sample's scene is rebuilt (a random room

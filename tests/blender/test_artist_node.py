@@ -1,8 +1,8 @@
-"""Issue 14: a model that predicts the diffuse part keeps what EEVEE renders itself. Through the SSGI render
+"""A model that predicts the diffuse part keeps what EEVEE renders itself. Through the SSGI render
 path (set up by setup_scene, rendered by RenderSession) on a tiny scene with an emissive panel, a metal
 sphere, a glass cube and a glossy plane (benchmarks/artist_scenes.py tiny_material_scene), real EEVEE at
 64x36: the diffuse-part model's image shows each of them as EEVEE's own render does, and a whole-image model
-(every model before issue 14) renders them black, which is the failure the issue reports."""
+(the first models) renders them black, the failure the diffuse-part target exists to avoid."""
 from __future__ import annotations
 
 import json
@@ -77,7 +77,7 @@ def test_emission_metal_glass_and_highlights_are_kept_by_a_diffuse_part_model(tm
     for role in ("emissive", "metal", "glass"):
         # never black: at least EEVEE's own non-diffuse light there (the prediction only adds diffuse light)
         assert new[role] >= 0.5 * ee[role], (role, new, ee)
-        # the whole-image path drops them (zero albedo: issue 14's black panel and ball)
+        # the whole-image path drops them (zero albedo: a black panel and ball)
         assert old[role] < 0.2 * ee[role], (role, old, ee)
     # the glossy plane's highlight is kept
     assert res["ref_diffuse_glossy_max"] >= 0.8 * res["eevee_glossy_max"], res

@@ -1,5 +1,5 @@
-"""The artist test set (benchmarks/artist_scenes.py, issue 14 item 5): every scene builds, saves and reopens with
-its render settings; the studio and the Cornell box hold what the issue names (metal, glass, film, an emissive
+"""The artist test set (benchmarks/artist_scenes.py): every scene builds, saves and reopens with
+its render settings; the studio and the Cornell box hold what the set is for (metal, glass, film, an emissive
 panel and no lamp objects); two builds are the same; the Cornell box is lit by its panel alone (a tiny Cycles
 render); tiny_material_scene holds each material it promises."""
 from __future__ import annotations

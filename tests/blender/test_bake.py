@@ -408,7 +408,7 @@ def test_reference_target_doubles_halves_until_they_agree(references):
 
 
 def test_reference_estimated_agreement_predicts_the_measured_one(references):
-    """What the manifest records per sample is what the issue measures: two references of the same scene from
+    """What the manifest records per sample is what the reference check measures: two references of the same scene from
     different seeds agree to the estimated PSNR. A reference of one half only (or an estimate without the
     3.01 dB of averaging two halves) would miss by 3 dB."""
     r = references

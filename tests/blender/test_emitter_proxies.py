@@ -1,5 +1,5 @@
 """The rest render's emitter proxies (passes.REST_EMITTER_PROXIES, direct_light.emitter_proxies), on real Blender:
-issue 10's Cornell box lit only by an emissive ceiling panel, with a mirror ball, at 64x36. EEVEE lights nothing
+the artist test set's Cornell box lit only by an emissive ceiling panel, with a mirror ball, at 64x36. EEVEE lights nothing
 from an emissive mesh off screen, so its mirror ball reflected dark walls where Cycles' shows them lit; with an
 area light standing in for the panel during the rest render, the ball comes closer to Cycles'. The proxies are
 gone after the render, the render path's rest is made with them, EEVEE's own render (``proxies=False``) and

@@ -1,4 +1,4 @@
-"""Fit to Scene (issue 8) on real Blender: cli.py fit on a tiny room, the jittered cameras, the SSGI node
+"""Fit to Scene on real Blender: cli.py fit on a tiny room, the jittered cameras, the SSGI node
 rendering a fitted model, the Fit to Scene operator. The bpy-free half is tests/unit/test_fit.py."""
 from __future__ import annotations
 
@@ -164,8 +164,8 @@ def test_fitted_model_lists_only_the_kept_passes_and_the_node_renders_with_it(sc
     assert scene_fit["render"]["inputs"] == "albedo,direct"
     # the node rendered what the model needs (+ depth and normals, which the render path always takes for the
     # world pixels and the depth normalisation, and EEVEE's own rest, which a diffuse-part model's image adds: the
-    # fit's views hold the diffuse part since issue 14), and nothing else (no AO; no EEVEE direct-lit colour
-    # `eevee`, which only a whole-image model's composition reads: session 12)
+    # fit's views hold the diffuse part), and nothing else (no AO; no EEVEE direct-lit colour
+    # `eevee`, which only a whole-image model's composition reads)
     assert ck["arch"]["target"] == "ref_diffuse"
     passes = scene_fit["dir"] / "passes" / "000002.exr"
     planes, _ = exrio.read_exr(passes)

@@ -1,4 +1,4 @@
-"""Fit a shot (issue 16, item 3) on real Blender: the plan withholds whole frames, the bake keeps away from
+"""Fit a shot on real Blender: the plan withholds whole frames, the bake keeps away from
 them, a tiny fit scores exactly those frames as the node renders them, and bad frame ranges are one-line
 errors. The shot is benchmarks/shot_scenes.py's "ripple" (a moving camera, a moving cube, a Wave and a Simple
 Deform modifier) at 64x36 over 20 frames, EEVEE at 1 sample. The module's fit learns the rest (--learn-rest): its
@@ -133,7 +133,7 @@ def test_fit_shot_report_scores_exactly_the_withheld_frames(shot_fit):
     assert w["frames"] == want and w["size"] == [64, 36] and w["ref_samples"] == 2
     lam = rep["lightmap"]["lam"]  # the shot's lightmap (test below): with a weight > 0 the network alone is scored too
     assert list(w["methods"]) == ["fitted"] + (["fitted_network"] if lam > 0 else []) + [
-        "generic", "eevee_gi", "cycles_1spp_oidn", "oracle_diffuse"]  # eevee_gi: EEVEE's own render (session 20)
+        "generic", "eevee_gi", "cycles_1spp_oidn", "oracle_diffuse"]  # eevee_gi: EEVEE's own render
     for m, r in w["methods"].items():
         assert sorted(map(int, r["per_frame"])) == want and 5 < r["psnr"] < 80
         assert (r["seconds"] is None) == (m == "oracle_diffuse")
@@ -229,7 +229,7 @@ np.savez({str(out)!r}, img=info["prediction"], net=net, img2=i2["prediction"], d
     r = np.load(out)
     g = {k: r[k] for k in ("albedo", "depth", "normal")}
     w = lm.blend_weight(g, 1.0) > 0
-    assert 0.2 < w.mean() < 1.0  # the faces are blended (edges too, since session 27), the sky is not
+    assert 0.2 < w.mean() < 1.0  # the faces are blended (edges too), the sky is not
     expect = np.maximum(r["rest"][..., :3] + 0.5 * r["albedo"][..., :3], 0)
     assert np.abs(r["img"][w] - expect[w]).max() < 1e-4
     assert np.abs(r["img"][~w] - r["net"][~w]).max() < 1e-5

@@ -102,7 +102,7 @@ def make_checkpoint(path: Path, variant: str = "unet_s", inputs=None) -> Path:
 
 def expected_image(model: Path, groups: dict, clip_end: float) -> np.ndarray:
     """What the node must show, computed here: predict() on the passes; a whole-image model with EEVEE's colour
-    where no geometry, a diffuse-part model plus EEVEE's own rest (issue 14)."""
+    where no geometry, a diffuse-part model plus EEVEE's own rest."""
     from ssgi.model.infer import predictor
     p = predictor.load_predictor(model)
     pred = p.predict(groups)

@@ -1,4 +1,4 @@
-"""Issue 15, item 4: one-render models (docs/one_render.md). Every group such a model reads comes from ONE EEVEE
+"""One-render models (docs/one_render.md). Every group such a model reads comes from ONE EEVEE
 render, the artist-settings render that gives ``rest``, made with ray tracing and fast GI on: ``eevee_diffuse``
 (its Diffuse Direct pass, EEVEE's own diffuse light) and albedo, normal, depth, emission, the motion vectors.
 Real EEVEE and Cycles at tiny sizes: the pass call makes one render and gives what separate renders give; a

@@ -1,5 +1,5 @@
-"""Issue 15, item 4: GI-off one-render models that read the render's Combined image instead of its Diffuse Direct pass
-(session 26, docs/one_render.md). Such a frame is the same one EEVEE render as a ``local`` model's (ray tracing and
+"""GI-off one-render models that read the render's Combined image instead of its Diffuse Direct pass
+(docs/one_render.md). Such a frame is the same one EEVEE render as a ``local`` model's (ray tracing and
 fast GI off, the emitter proxies on) with one pass fewer: no Diffuse Direct, so no rest. ``cli.py fit --one-render
 combined`` bakes the views of that render with its Combined image (``eevee_combined``) and fits scratch networks with
 head ``residual_combined`` on target ``ref_combined``; the node composes EEVEE's image + the prediction. Real EEVEE and
@@ -69,7 +69,7 @@ def test_a_combined_one_render_fit_reads_the_combined_image_and_no_diffuse_direc
     assert {"eevee_combined", "eevee_local", "rest", "gloss"} <= set(baked)  # (the fit's report and comparisons)
     assert pfit.ONE_RENDER_FITS["combined"][2] == ch.COMBINED_TARGET
     assert lightmap.known_for(ch.required_groups(spec)) == ()  # no known light: the field is the light it adds
-    # the default kind since session 27 (it won on the withheld frames of all three shots), for the CLI, the config and
+    # the default kind (it won on the withheld frames of all three shots), for the CLI, the config and
     # the Fit panel alike
     assert pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True).one_render_kind == "combined"
     import argparse

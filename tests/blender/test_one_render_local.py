@@ -1,7 +1,7 @@
-"""Issue 15, item 4: GI-off one-render models (docs/one_render.md, session 20). A frame of such a model is ONE EEVEE
+"""GI-off one-render models (docs/one_render.md). A frame of such a model is ONE EEVEE
 render with ray tracing and fast GI switched off and an area light standing in for each planar emitter, casting
-no shadow since session 21 (``passes.ONE_RENDER_MODES["eevee_local"]``; a model baked with shadowed proxies gets
-them) and only on the sides of an emitter that face open space since session 23 (``passes.PROXY_SIDES_LOCAL``): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
+no shadow (``passes.ONE_RENDER_MODES["eevee_local"]``; a model baked with shadowed proxies gets
+them) and only on the sides of an emitter that face open space (``passes.PROXY_SIDES_LOCAL``): its Diffuse Direct pass is ``eevee_local``, and albedo, normal, depth,
 emission, rest and gloss come from it too. ``cli.py fit --one-render`` bakes views of that render and fits scratch
 networks (head ``residual_local``) on them. Real EEVEE and Cycles at tiny sizes: the pass call makes one render with
 GI off and proxies on and puts the artist's settings back; a tiny one-render shot fit writes a model that reads
@@ -28,7 +28,7 @@ rest, _c, own = passes.render_rest(sc, 2, groups=("eevee_local", "gloss"), gi=Fa
                                    proxy_sides=sides)
 gi_on = passes.render_rest(sc, 2, groups=("eevee_local",), gi=True, proxies=True,
                            proxy_shadows=shadows, proxy_sides=sides)[2]["eevee_local"]
-# the proxies' sides: only the panel's downward side faces open space (session 23); a model baked with a proxy on
+# the proxies' sides: only the panel's downward side faces open space; a model baked with a proxy on
 # both sides gets both (render_gbuffer's proxy_sides, which the node takes from the model)
 both = passes.render_gbuffer(sc, ("depth", "eevee_local"), samples=2, rest_samples=2, proxy_sides="both")
 own_both = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False, proxies=True, proxy_shadows=shadows,
@@ -36,7 +36,7 @@ own_both = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False, proxies=
 d = np.abs(both["eevee_local"] - one["eevee_local"]).max(-1)
 res["sides"] = {"default": sides, "vs_own_both": float(np.abs(both["eevee_local"] - own_both).max()),
                 "max_diff": float(d.max()), "frac_diff": float((d > 1e-3).mean())}
-# the proxies' shadows: the one render's default (unshadowed, session 21), and a model that was trained on
+# the proxies' shadows: the one render's default (unshadowed), and a model that was trained on
 # shadowed ones gets them (render_gbuffer's proxy_shadows, which the node takes from the model)
 shadowed = passes.render_gbuffer(sc, ("depth", "eevee_local"), samples=2, rest_samples=2, proxy_shadows=True)
 own_shadowed = passes.render_rest(sc, 2, groups=("eevee_local",), gi=False, proxies=True,
@@ -137,7 +137,7 @@ setup_scene(sc, model)
 s = RenderSession(sc, frames=[5], model=model, write=False, keep_groups=True)
 s.run()
 r = s.results[0]
-# a model of a one render with shadowed proxies (its manifest from before session 21 did not say) gets them
+# a model of a one render with shadowed proxies (an older manifest that does not say) gets them
 from ssgi.ssgi_addon.blender.passes import recorded_proxy_shadows, recorded_proxy_sides
 one = s.predictor.inner.meta["dataset"]["settings"]["eevee"]["one_render"]
 old = {"dataset": {"settings": {"eevee": {"one_render": {k: v for k, v in one.items()

@@ -1,4 +1,4 @@
-"""Issue 15, item 4: the render path reads albedo, normal, depth and emission from the artist-settings render
+"""The render path reads albedo, normal, depth and emission from the artist-settings render
 (the one that gives ``rest``) instead of the direct-only G-buffer render (passes.render_gbuffer ``merge``).
 On a tiny scene with a lamp, an emissive panel, a sky (a gradient world), metal and glass, real EEVEE at
 64x36 and 2 samples: every group of the merged call equals the separate renders' within 1e-6 (measured: exactly
@@ -173,7 +173,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_the_render_path_keeps_the_last_renders_file_for_the_compositor_and_no_other():
-    """keep_render_file (the compositor's stand-in, session 24): of a call that renders twice (direct-only, then
+    """keep_render_file (the compositor's stand-in): of a call that renders twice (direct-only, then
     the artist-settings render) exactly one read-back file is left, the last render's (its albedo is the group's),
     uncompressed (passes.SCRATCH_EXR_CODEC); an exception inside removes it; outside, no file stays."""
     p = run_py(f"ROOT = __import__('pathlib').Path({str(ROOT)!r})\n" + KEEP_CODE, timeout=600)
@@ -217,7 +217,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_a_render_in_which_nothing_casts_a_shadow_skips_eevees_shadows_and_gives_the_same_image():
-    """passes.casts_no_shadow / SKIP_UNUSED_SHADOWS (session 24): the tiny scene's lamp casts a shadow; unshadowed, the
+    """passes.casts_no_shadow / SKIP_UNUSED_SHADOWS: the tiny scene's lamp casts a shadow; unshadowed, the
     gradient sky's extracted sun still may; with that off nothing can, and the render path's render is made with
     EEVEE's shadows off: every group and the image equal the shadows-on render's exactly, and the artist's setting
     is back afterwards. With the lamp's shadow back on, nothing is skipped."""
@@ -319,7 +319,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_where_no_material_can_emit_the_render_path_leaves_the_emission_pass_out_and_gives_the_same_groups():
-    """passes.SKIP_EMPTY_EMISSION (session 30): in the artist test set's closed room (diffuse Principled materials, a
+    """passes.SKIP_EMPTY_EMISSION: in the artist test set's closed room (diffuse Principled materials, a
     point lamp, a black world) no used material can emit (direct_light.materials_may_emit), so the one render
     leaves the Emission pass out: every group, the image and the zero emission equal those of the render that writes
     the pass (whose Emission is black to the bit), and the artist's pass flag is back afterwards. Emission Strength 0
@@ -387,7 +387,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_a_one_render_frame_takes_its_normals_from_the_depth_and_they_are_the_passs_on_flat_surfaces():
-    """passes.NORMALS_FROM_DEPTH (session 30): a one-render model's frame writes no Normal pass (its flag, on as
+    """passes.NORMALS_FROM_DEPTH: a one-render model's frame writes no Normal pass (its flag, on as
     setup_scene leaves it, is off for the render and back after it); its normals, from the Z pass, are unit length on
     geometry, zero where nothing was hit (the exterior's sky, where the Z pass holds the clip end), and agree with EEVEE's Normal pass (normals="pass", what a bake stores) to
     a median under 1 degree in the closed room (walls, a crate, a ball, a column); every other group is the same. A

@@ -1,7 +1,7 @@
-"""A shot's reflection map on real Blender (model/infer/reflmap.py; issue 16): a shot fit of a scene with a mirror bakes
+"""A shot's reflection map on real Blender (model/infer/reflmap.py): a shot fit of a scene with a mirror bakes
 EEVEE's rest and Glossy Color into its views, fits the map beside the model and reports it; a diffuse shot is told
 apart and bakes no rest; and the node's render path adds weight x gloss x field to EEVEE's rest exactly on the glossy
-pixels. The shot is benchmarks/shot_scenes.py's "cornell_emissive" (issue 10's Cornell box lit by an emissive panel,
+pixels. The shot is benchmarks/shot_scenes.py's "cornell_emissive" (the artist test set's Cornell box lit by an emissive panel,
 with a mirror ball; the camera pushes in) at 96x54 over 20 frames, EEVEE at 1 sample. The bpy-free half is
 tests/unit/test_reflmap.py."""
 from __future__ import annotations

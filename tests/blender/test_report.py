@@ -1,4 +1,4 @@
-"""The speed-against-error report (issue 6): metric functions against known values, the equal-quality
+"""The speed-against-error report: metric functions against known values, the equal-quality
 interpolation, and a tiny end-to-end run on real Blender (2 random rooms at 64x36, baked through
 `bake --scenes`, a short spp ladder, random-init tiny models), on the command line and from the Report button."""
 import json
@@ -298,8 +298,8 @@ def one_render_models(tmp_path_factory):
 def test_the_report_renders_one_render_models_of_both_kinds_each_from_its_own_one_render(e2e, one_render_models,
                                                                                           tmp_path):
     """A GI-off combined model (what `cli.py fit --one-render` makes) is scored beside a GI-on one-render model: each
-    from one EEVEE render of its own kind (no G-buffer renders), the two renders made apart. Before session 28 the
-    report knew only the GI-on kind and failed on a combined model for want of the G-buffer's eevee_combined."""
+    from one EEVEE render of its own kind (no G-buffer renders), the two renders made apart (a combined model needs the G-buffer's eevee_combined, which only its own
+    kind of render gives)."""
     out = tmp_path / "rep"
     run_cli("report", "--data", str(e2e["out"] / "data"), "--split", "all", "--max-scenes", "1",
             "--models", *map(str, one_render_models), "--out", str(out), "--spp", "1", "--eevee-samples", "1",

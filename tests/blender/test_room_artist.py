@@ -261,7 +261,7 @@ def test_tiny_eevee_render_of_an_emission_only_room(tmp_path):
     assert img.shape == (36, 64, 3)
     bright = img.max(axis=-1) > 0.9
     assert 0.005 < bright.mean() < 0.5  # the emitter is in view, saturated
-    assert np.median(img) < 0.05  # the rest: unlit in EEVEE (what the network must add, issue 14 item 2)
+    assert np.median(img) < 0.05  # the rest: unlit in EEVEE (what the network must add)
 
 
 def test_randomize_room_operator_and_panel_take_the_mode():

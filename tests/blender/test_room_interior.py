@@ -14,7 +14,7 @@ from ..conftest import run_py
 N = 200
 PARAMS = {s: room.room_params(s, "interior") for s in range(N)}
 
-# /work/data/interior1 is baked from seed 0 across sessions: a change to these hashes makes its later samples
+# a bake folder of interiors (the shipped model's interior1) grows from seed 0 over several runs: a change to these hashes makes its later samples
 # other scenes than its first ones (bake a new folder instead)
 FROZEN = {0: "d1e9792802ce3f985565cd563699782b70903bb5cf27eeee2575af8a3252f8d3",
           41: "cd1adf69604448958e64693d700bb6213d10fe578f67f9be1141b4f66d2f4faa",

@@ -15,7 +15,7 @@ from ..conftest import run_py
 N = 200
 PARAMS = {s: room.room_params(s, "studio") for s in range(N)}
 
-# the bakes /work/data/artist1 (seeds 20000-21199) and studio1 (from seed 0) are baked across sessions: a change
+# the bakes artist1 (seeds 20000-21199) and studio1 (from seed 0) grow over several runs: a change
 # to these hashes makes a folder's later samples other scenes than its first ones (bake a new folder instead)
 FROZEN = {("artist", 20000): "d5b1d2ced71081ef4bd989274b588297177b0a64d3dfa263b0bdc008ac22949b",
           ("artist", 20777): "5308bbbf4488ceb7cfa2e7937fedd7dbadc8fb8cd09343c38e23ae250aaacbef",

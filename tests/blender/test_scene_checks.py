@@ -1,4 +1,4 @@
-"""Issue 14, "Bad input": a scene setup the SSGI path cannot handle is refused (UserError, one line naming the
+"""Bad input: a scene setup the SSGI path cannot handle is refused (UserError, one line naming the
 object/material/setting and the fix) or rendered with a warning (stderr "SSGI: warning: ...", the node label,
 the summary's "warnings", the operator's report). Each case of benchmarks/bad_input.py (which measured what each
 does to the image, docs/node.md) is built on the tiny emissive/metal/glass/glossy scene with a random model and

@@ -1,4 +1,4 @@
-"""Issue 16: the temporal mode of the render path, on real EEVEE renders (64x36, 1 sample, the shipped model).
+"""The temporal mode of the render path, on real EEVEE renders (64x36, 1 sample, the shipped model).
 
 A tiny moving scene made here (camera keyframed, a cube keyframed, a floor with a Wave modifier): the mode on
 and off differ; out-of-order frames and a killed-then-resumed `cli.py render` give the in-order frames bit for

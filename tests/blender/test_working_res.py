@@ -1,4 +1,4 @@
-"""Issue 15: the render path predicts at the working resolution the node asks for, and a sky edge keeps its
+"""The render path predicts at the working resolution the node asks for, and a sky edge keeps its
 brightness (no dark rim) at full and at a reduced working resolution. Real EEVEE at 64x36, 4 samples: the
 exterior artist scene (benchmarks/artist_scenes.py: buildings against a sky), through setup_scene and
 RenderSession, against EEVEE's own render of the same scene (ray tracing + fast GI, its settings)."""
@@ -61,7 +61,7 @@ def test_the_node_predicts_at_its_working_resolution_and_a_sky_edge_gets_no_dark
     assert res["factor"] == 2 and res["edge_pixels"] > 40
     for k in ("full", "2x"):
         # SSGI is brighter than EEVEE's own GI overall here; along the sky edge it keeps that ratio (a dark rim
-        # of 0.25-0.35x, issue 15, would pull the edge's ratio far below the inside's)
+        # of 0.25-0.35x, would pull the edge's ratio far below the inside's)
         assert res[k]["edge"] > 0.85 * res[k]["inside"], res
         assert res[k]["edge_p05"] > 0.5, res
 

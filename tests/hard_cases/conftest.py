@@ -1,4 +1,4 @@
-"""Shared fixtures of the hard-case suite (issue 7): a tiny synthetic dataset and two briefly trained models.
+"""Shared fixtures of the hard-case suite: a tiny synthetic dataset and two briefly trained models.
 
 The models are trained for real (a few epochs on CPU, one thread) so that tests of precision, HDR and black
 scenes run on weights that have learnt something, not only on random ones. One model of each head kind:

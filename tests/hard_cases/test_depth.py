@@ -1,4 +1,4 @@
-"""Hard case 3 (issue 7): depth extremes on real EEVEE renders (64x36, 1 sample, one subprocess).
+"""Hard case 3: depth extremes on real EEVEE renders (64x36, 1 sample, one subprocess).
 
 A wall 4 m in front of the camera fills the lower part of the frame, a cube stands before it, a small card
 hangs 5 mm in front of the lens, and the sky above the wall is empty (no geometry). Rendered

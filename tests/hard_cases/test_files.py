@@ -1,4 +1,4 @@
-"""Hard case 8 (issue 7): broken or foreign files through the command line. Each gives exit status 2, a
+"""Hard case 8: broken or foreign files through the command line. Each gives exit status 2, a
 message on stderr that names the file and the fault, no traceback, and leaves the would-be output as it was
 (same bytes, same mtime)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Hard cases 9 (killed jobs) and 10 (determinism) of issue 7 for the Blender jobs: `cli.py bake` and
+"""Hard cases 9 (killed jobs) and 10 (determinism) for the Blender jobs: `cli.py bake` and
 `cli.py render` are killed with SIGKILL at a seeded random moment, a temporary file as a kill in the middle
 of a write leaves it is added, and the same command is run again. Tiny sizes: real EEVEE and Cycles.
 

@@ -1,4 +1,4 @@
-"""Hard cases 1, 2, 4, 5 and 6 (issue 7): non-finite input, extreme HDR, black scenes, odd sizes, reduced
+"""Hard cases 1, 2, 4, 5 and 6: non-finite input, extreme HDR, black scenes, odd sizes, reduced
 precision. bpy-free, in process, on briefly trained models (conftest.trained) and on untrained variants."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Hard case 11 (issue 7): property-based tests (hypothesis) of the normalisation, the tonemap and its
+"""Hard case 11: property-based tests (hypothesis) of the normalisation, the tonemap and its
 inverse, the light transform, tiling, and the channel-spec parser, over random shapes and values.
 
 Example counts are bounded and deadlines off, so the file stays fast on a loaded 2-core machine."""

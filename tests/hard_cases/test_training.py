@@ -1,5 +1,5 @@
 """Hard cases 4 (constant datasets), 7 (divergent training), 9 (a killed training resumes) and 10 (training
-is deterministic) of issue 7, on tiny synthetic datasets, CPU, one torch thread."""
+is deterministic), on tiny synthetic datasets, CPU, one torch thread."""
 from __future__ import annotations
 
 import json

@@ -1,4 +1,4 @@
-"""Near emitters the working resolution runs the network at the output resolution (issue 15, model/infer/fine.py):
+"""Near emitters the working resolution runs the network at the output resolution (model/infer/fine.py):
 the boxes, the plan, crops that see the whole image's statistics, and the blend."""
 from __future__ import annotations
 

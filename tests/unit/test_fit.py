@@ -1,4 +1,4 @@
-"""Fit to Scene (issue 8), the bpy-free half: model/learn/fit.py, ablation, the fit report, the fit stage's config
+"""Fit to Scene, the bpy-free half: model/learn/fit.py, ablation, the fit report, the fit stage's config
 and the views' plan. Budgets are seconds; the views are tiny. The Blender half is tests/blender/test_fit.py."""
 from __future__ import annotations
 
@@ -309,7 +309,7 @@ def test_a_shot_fit_fine_tunes_the_starting_checkpoint_towards_the_shot_bar_unle
     assert shot_defaults(empty, "generic.pt", shot=False) == ([], None)  # an explicit [] is kept, not the default
 
 
-# ---- learning the rest (issue 16: EEVEE's rest caps a diffuse-part fit, docs/fit_shot.md)
+# ---- learning the rest (EEVEE's rest caps a diffuse-part fit, docs/fit.md)
 
 def test_the_rest_target_is_cycles_minus_eevees_rest_and_composes_back_to_cycles():
     from ssgi.model.infer import compose

@@ -1,4 +1,4 @@
-"""A shot's lightmap (model/infer/lightmap.py, model/learn/lightmap.py; issue 16), bpy-free: the camera geometry,
+"""A shot's lightmap (model/infer/lightmap.py, model/learn/lightmap.py), bpy-free: the camera geometry,
 the field's training, the blend and its weight, the file. The Blender half (camera matrices from bpy, a shot fit
 writing and the node applying it) is in tests/blender/test_fit_shot.py."""
 from __future__ import annotations
@@ -129,7 +129,7 @@ def test_apply_blends_only_where_it_is_safe():
     assert e[:, 7:9].all() and not e[5, 2]  # the depth edge, not the flat wall
     assert np.array_equal(out[w == 0], part[w == 0])  # the sky pixel and the black channel keep the network
     assert w[0, 0] == 0 and (w[-3:, :3] == 0).all()
-    # since session 27 the lightmap is blended on the edges too (the rule before it kept the network there)
+    # the lightmap is blended on the edges too (network_on_edges=True keeps the network there)
     assert (w[1:-3, 7:9] == 0.5).all()
     assert np.allclose(out[5, 8], 0.5 * 0.5 * 2.0 + 0.5 * 0.3)
     old = lm.blend_weight(g, 0.5, network_on_edges=True)

@@ -469,7 +469,7 @@ def test_settings_schema_writes_every_identity_key_and_one_entry_reads_folders(t
     assert rooms["eevee"] == eevee and scenes["cycles"]["denoiser"] == "OPENIMAGEDENOISE"
     with pytest.raises(UserError, match=r"baked with ref_samples=2 \(not ref_samples=3\)"):
         dataset.check_compatible({"settings": rooms}, dict(rooms, ref_samples=3), "here")
-    # a one-render bake's render (its emitter proxies' sides, session 23) must agree too; the rest of eevee need not
+    # a one-render bake's render (its emitter proxies' sides) must agree too; the rest of eevee need not
     one = dict(scenes, eevee={"world": "black", "one_render": {"kind": "local", "emitter_proxy_sides": "open"}})
     old_one = dict(scenes, eevee={"world": "black", "one_render": {"kind": "local"}})
     with pytest.raises(UserError, match=r"eevee.one_render=\{'kind': 'local'\} \(not"):

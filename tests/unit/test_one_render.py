@@ -1,4 +1,4 @@
-"""Issue 15, item 4 (bpy-free): one-render models read EEVEE's own diffuse light (``eevee_diffuse``), its
+"""One-render models (bpy-free) read EEVEE's own diffuse light (``eevee_diffuse``), its
 whole-image statistics (``scene_gi``) and a shading head that starts from it (``residual_gi``)."""
 from __future__ import annotations
 
@@ -80,7 +80,7 @@ def test_eevee_diffuse_is_an_optional_stored_group_so_older_datasets_stay_whole(
     assert "eevee_diffuse" not in folder.stored_groups(old)
 
 
-# ---- GI-off one-render models (session 20): eevee_local, head residual_local, the fit's ladder and the bake's groups
+# ---- GI-off one-render models: eevee_local, head residual_local, the fit's ladder and the bake's groups
 
 LOCAL_SPEC = ("albedo", "normal", "depth", "emission", "eevee_local", "glow", "surround")
 

@@ -1,4 +1,4 @@
-"""A shot's reflection map (model/infer/reflmap.py, model/learn/reflmap.py; issue 16), bpy-free: the reflected rays,
+"""A shot's reflection map (model/infer/reflmap.py, model/learn/reflmap.py), bpy-free: the reflected rays,
 where it corrects, the field's training on an environment, the weight, the file. The Blender half (views with rest
 and gloss, a fit writing it, the node applying it) is in tests/blender/test_fit_shot.py."""
 from __future__ import annotations

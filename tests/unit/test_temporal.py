@@ -1,4 +1,4 @@
-"""Temporal mode (issue 16, model/infer/temporal.py): the Vector pass convention, the reprojection and its
+"""Temporal mode (model/infer/temporal.py): the Vector pass convention, the reprojection and its
 validity mask, the finite-window blend (exact where there is no history) and the warped flicker measure."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Prediction at a working resolution (issue 15, model/infer/workres.py): the setting, the reduction that keeps
+"""Prediction at a working resolution (model/infer/workres.py): the setting, the reduction that keeps
 edges meaningful, the guided upsample and the wrapper around any predictor."""
 from __future__ import annotations
 
