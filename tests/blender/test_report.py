@@ -8,7 +8,7 @@ import pytest
 
 from ssgi.model.learn import checkpoint, network
 
-from ..conftest import run_cli, run_py
+from ..conftest import ROOT, run_cli, run_py
 
 def test_report_stage_config_refuses_bad_settings_before_any_work(tmp_path):
     from ssgi.model.errors import UserError
@@ -57,15 +57,18 @@ def tiny_models(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def e2e(tmp_path_factory, tiny_models):
+    """The report's run over two rooms: the random-init networks of each size, and the two shipped models (what a user
+    reports on)."""
     d = tmp_path_factory.mktemp("report")
+    models = [*tiny_models, ROOT / "models" / "ssgi_default.pt", ROOT / "models" / "ssgi_one_render.pt"]
     blends = [d / "room3.blend", d / "room4.blend"]
     run_py(_ROOMS, *map(str, blends), timeout=120)
     out = d / "out"
-    p = run_cli("report", "--scenes", *map(str, blends), "--models", *map(str, tiny_models), "--out", str(out),
+    p = run_cli("report", "--scenes", *map(str, blends), "--models", *map(str, models), "--out", str(out),
                 "--size", "64x36", "--ref-samples", "16", *TINY, "--sizes", "64x36,128x72", "--temporal-frames", "3",
                 "--json", timeout=600)
     return dict(out=out, summary=json.loads(p.stdout), raw=json.loads((out / "report.json").read_text()),
-                stderr=p.stderr, models=tiny_models)
+                stderr=p.stderr, models=models)
 
 
 def _finite(x) -> bool:
