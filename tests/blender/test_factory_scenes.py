@@ -13,9 +13,9 @@ differs from EEVEE's own 64 samples by little (measured at 1 sample: the glass, 
 1 %, the rough gold's highlight 11 % brighter). On the diffuse cube the network adds the light EEVEE lacks
 (measured 1.13-1.35x EEVEE's own, both models, 1 and 64 samples); the GI-off one-render model's prediction is
 signed and may take some light away, not half of it. A surface black in the SSGI frame measures 0, a darkened one
-far below 0.5; the models' float32 differences between CPUs (1e-4 relative) are far below either bound. A surface counts as shown where
-EEVEE's own mean is above VISIBLE (the empty scene's rough glass measures 0.006, its mirror and clear glass 0: with
-no world and no ray tracing EEVEE shows them black itself)."""
+far below 0.5; the models' float32 differences between CPUs (1e-4 relative) are far below either bound. A surface
+counts as shown where EEVEE's own mean is above VISIBLE (the empty scene's rough glass measures 0.006, its mirror and
+clear glass 0: with no world and no ray tracing EEVEE shows them black itself)."""
 from __future__ import annotations
 
 import json

@@ -117,8 +117,8 @@ def masks(scene, names: dict[str, str], erode: int = 1) -> dict[str, np.ndarray]
     h = scene.render.resolution_y * scene.render.resolution_percentage // 100
     cam = scene.camera
     dg = bpy.context.evaluated_depsgraph_get()
-    frame = [cam.matrix_world @ v for v in cam.data.view_frame(scene=scene)]  # top-right, bottom-right, bottom-left, top-left
-    tr, br, bl, tl = frame
+    # the corners of the camera's frame in world space: top-right, bottom-right, bottom-left, top-left
+    tr, br, bl, tl = [cam.matrix_world @ v for v in cam.data.view_frame(scene=scene)]
     origin = cam.matrix_world.translation
     hit_by = np.full((h, w), "", dtype=object)
     for y in range(h):
