@@ -1,0 +1,1 @@
+"""Scene builders the tests share (bpy scripts run in the test's subprocess)."""
