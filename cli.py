@@ -105,7 +105,12 @@ def main(argv: list[str] | None = None) -> int:
     load_package()
     from ssgi.model import errors
     parser = build_parser()
-    args = parser.parse_args(_argv() if argv is None else argv)
+    argv = _argv() if argv is None else argv
+    args, unparsed = parser.parse_known_args(argv)
+    if getattr(args, "needs_blender", False):  # a Blender command where bpy is missing: its options do not matter
+        args.unparsed = unparsed
+    elif unparsed:
+        args = parser.parse_args(argv)  # argparse's own error for what it does not know
     from ssgi.model.dataset.exrio import stdout_to_stderr
     try:
         # with --json, stdout holds only the summary: what Blender's C code prints meanwhile (Cycles' "CUEW
@@ -117,6 +122,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"cli.py {args.command}: interrupted; completed work is kept", file=sys.stderr)
         return 130
+    except ImportError as e:  # a command that needs Blender, where bpy is missing: what to install, in one line
+        from ssgi.ssgi_addon import commands
+        if not commands.is_blender_import(e):
+            traceback.print_exc()
+            return _fail(args, 1, f"{type(e).__name__}: {e}")
+        return _fail(args, 2, commands.needs_blender(args.command, e))
     except Exception as e:  # a Blender binary would print this and exit 0: make it a failure in both ways
         traceback.print_exc()
         return _fail(args, 1, f"{type(e).__name__}: {e}")

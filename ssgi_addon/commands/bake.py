@@ -1,9 +1,8 @@
-"""`cli.py bake`, `verify`, `merge`, `preview`: the bake stage (ssgi_addon/pipeline/bake.py) and the dataset
-folder's tools (model/dataset/) behind argparse.
+"""`cli.py bake`: the bake stage (ssgi_addon/pipeline/bake.py) behind argparse. (The dataset folder's tools,
+`verify`, `merge` and `preview`, are commands/dataset.py: they need no Blender.)
 
     cli.py bake --out DIR [--count 10] [--seed 0] [--mode diffuse|artist] [--size 240x135] [--ref-samples N] [--denoise] [--shard i/n]
     cli.py bake --out DIR --scenes a.blend b.blend [--frames 1-48]
-    cli.py verify DIR | cli.py merge DIR | cli.py preview DIR --out SHEET.png
 """
 from __future__ import annotations
 
@@ -45,36 +44,6 @@ def run_bake(args) -> dict:
         bar.close()
     print(f"bake: {res['baked']} baked, {res['skipped']} already complete, {res['total']} in all -> {res['out']}",
           file=sys.stderr)
-    return res
-
-
-def run_verify(args) -> dict:
-    from ...model.dataset import folder as ds
-    problems = ds.verify(args.folder)
-    for p in problems:
-        print(f"verify: {p}", file=sys.stderr)
-    n = 0
-    try:
-        n = len(ds.open_folder(args.folder)["samples"])
-    except UserError:
-        pass
-    if problems:
-        raise UserError(f"{args.folder}: {len(problems)} problem(s) found (listed above)")
-    print(f"verify: {args.folder}: {n} samples, all good", file=sys.stderr)
-    return {"folder": str(args.folder), "samples": n, "problems": problems}
-
-
-def run_merge(args) -> dict:
-    from ...model.dataset import folder as ds
-    res = ds.merge(args.folder)
-    print(f"merge: {res['samples']} samples from {len(res['shards'])} shard manifest(s)", file=sys.stderr)
-    return res
-
-
-def run_preview(args) -> dict:
-    from ...model.dataset import preview
-    res = preview.preview(args.folder, args.out, max_samples=args.max)
-    print(f"preview: {res['sheet']} ({res['samples']} samples)", file=sys.stderr)
     return res
 
 
@@ -131,20 +100,3 @@ def register_cli(sub) -> None:
     p.add_argument("--frames", type=cliargs.parse_frames, default=None, metavar="A-B",
                    help="frames of --scenes to bake (default: each scene's current frame)")
     p.set_defaults(func=run_bake)
-
-    v = sub.add_parser("verify", help="check a dataset folder", description="Check counts, channel names and "
-                       "sizes, finite values and the manifest against the files; names each problem file.")
-    v.add_argument("folder", metavar="DIR")
-    v.set_defaults(func=run_verify)
-
-    m = sub.add_parser("merge", help="join shard manifests into manifest.json",
-                       description="Join the manifests of `bake --shard i/n` runs in DIR into DIR/manifest.json.")
-    m.add_argument("folder", metavar="DIR")
-    m.set_defaults(func=run_merge)
-
-    pv = sub.add_parser("preview", help="write a contact sheet of a dataset",
-                        description="Per sample: the passes and the reference, tonemapped, in one PNG.")
-    pv.add_argument("folder", metavar="DIR")
-    pv.add_argument("--out", required=True, metavar="SHEET.png")
-    pv.add_argument("--max", type=cliargs.positive_int, default=12, help="samples to show (default 12)")
-    pv.set_defaults(func=run_preview)

@@ -6,15 +6,21 @@ import sys
 
 
 def run(args) -> dict:
-    import bpy
     import numpy
+
+    try:
+        import bpy
+        blender, blender_error = bpy.app.version_string, None
+    except ImportError as e:  # a training node: no Blender (train, export, predict and the dataset tools need none)
+        blender, blender_error = None, f"{type(e).__name__}: {e}"
 
     from ...model import channels
     from ..runtime import deps
     ok, torch_info = deps.torch_status()
     ort_ok, ort_info = deps.onnxruntime_status()
     out = {
-        "blender": bpy.app.version_string,
+        "blender": blender,
+        "blender_error": blender_error,
         "python": sys.version.split()[0],
         "numpy": numpy.__version__,
         "torch": torch_info if ok else None,

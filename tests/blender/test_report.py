@@ -117,7 +117,8 @@ def test_end_to_end_writes_all_four_outputs_with_finite_numbers(e2e):
     tp = raw["temporal"]
     assert tp["frames"] == 3 and tp["oidn_spp"] in (1, 2, 4)
     assert all(_finite(r["change"]) and len(r["per_step"]) == 2 for r in tp["methods"].values())
-    assert e2e["summary"]["ok"] and e2e["summary"]["default_model"] == "model_0_unet_s"
+    # the shipped default model is the report's default when it is among the models
+    assert e2e["summary"]["ok"] and e2e["summary"]["default_model"] == "model_4_ssgi_default"
 
 
 def test_report_md_has_the_table_verdicts_and_settings(e2e):
@@ -128,8 +129,9 @@ def test_report_md_has_the_table_verdicts_and_settings(e2e):
         assert s in md, s
     table = md.split("## Methods")[1].split("## Where")[0]
     assert "n/a" not in table and "nan" not in table
-    v = e2e["raw"]["verdicts"]["model_0_unet_s"][0]
-    assert v.split(":")[0] in ("wins", "loses", "undecided")
+    for key in ("model_0_unet_s", "model_4_ssgi_default", "model_5_ssgi_one_render"):
+        v = e2e["raw"]["verdicts"][key][0]
+        assert v.split(":")[0] in ("wins", "loses", "undecided"), key
 
 
 def test_dataset_split_follows_the_models_checkpoint(e2e):
