@@ -175,6 +175,22 @@ def existing_file(text: str) -> Path:
     return p
 
 
+def model_arg(text: str) -> str:
+    """A ``--model`` value: a shipped model's name (model/shipped.py: "default", "one_render") becomes its file; any
+    other value is a path, kept as given."""
+    from . import shipped
+    p = shipped.resolve(text) if text.strip() in shipped.BY_NAME else None
+    return str(p) if p is not None else text
+
+
+def existing_model(text: str) -> Path:
+    """``model_arg``, then ``existing_file``."""
+    return existing_file(model_arg(text))
+
+
+MODEL_HELP = "a shipped model's name (default, one_render) or a checkpoint file"
+
+
 def existing_dir(text: str) -> Path:
     p = Path(text).expanduser()
     if not p.is_dir():

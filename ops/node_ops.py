@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bpy
 
+from ..model import shipped
 from ..model.errors import UserError
 from ..ssgi_addon.blender import node as ssgi_node
 from ..ssgi_addon.blender.compositor import setup_scene
@@ -159,8 +160,20 @@ _MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu), ("TOPBAR_MT_render
 
 def register_extra():
     bpy.types.CompositorNodeGroup.ssgi_model = bpy.props.StringProperty(
-        name="Model", subtype="FILE_PATH", default="",
-        description="SSGI model checkpoint (.pt); empty uses the scene's model or the shipped default")
+        name="Model file", subtype="FILE_PATH", default="",
+        description="This node's own model file (.pt or .onnx); empty uses the scene's model")
+    # the menu over ssgi_model: the scene's model, a shipped one by name, or a custom file (ssgi_model_custom)
+    model_menu = [k for k, _, _ in shipped.menu_items(inherit=True)]
+
+    def set_model(self, i):
+        self["ssgi_model"], self["ssgi_model_custom"] = shipped.setting_for(model_menu[i], self.get("ssgi_model", ""),
+                                                                            inherit=True)
+
+    bpy.types.CompositorNodeGroup.ssgi_model_choice = bpy.props.EnumProperty(
+        name="Model", items=shipped.menu_items(inherit=True),
+        get=lambda self: model_menu.index(shipped.menu_choice(str(self.get("ssgi_model", "") or ""),
+                                                         bool(self.get("ssgi_model_custom", False)), inherit=True)),
+        set=set_model, description="The model this node predicts with: the scene's, a shipped one, or a file")
     bpy.types.CompositorNodeGroup.ssgi_working_res = bpy.props.StringProperty(
         name="Working Resolution", default="",
         description="Resolution the network predicts at, upsampled with the full-resolution G-buffer: auto (from "
@@ -177,7 +190,7 @@ def register_extra():
         if str(self.get("ssgi_temporal", "auto") or "auto") in modes else 0,
         set=lambda self, i: self.__setitem__("ssgi_temporal", modes[i]),
         description="Blend each frame with the motion-reprojected predictions of the frames before it "
-                    "(less flicker; docs/temporal.md)")
+                    "where the surface is the same (less flicker)")
     for menu, fn in _MENUS:
         m = getattr(bpy.types, menu, None)
         if m is not None:
@@ -193,6 +206,6 @@ def unregister_extra():
         m = getattr(bpy.types, menu, None)
         if m is not None:
             m.remove(fn)
-    for prop in ("ssgi_model", "ssgi_working_res", "ssgi_temporal"):
+    for prop in ("ssgi_model", "ssgi_model_choice", "ssgi_working_res", "ssgi_temporal"):
         if hasattr(bpy.types.CompositorNodeGroup, prop):
             delattr(bpy.types.CompositorNodeGroup, prop)

@@ -23,8 +23,10 @@ class SSGI_PT_main(RenderPropertiesPanel, bpy.types.Panel):
         if settings is not None:
             layout.prop(settings, "dataset_dir")
             row = layout.row(align=True)
-            row.prop(settings, "model_path")
+            row.prop(settings, "model_choice")
             row.operator("ssgi.export_onnx", text="", icon="EXPORT")
+            if settings.model_choice == "CUSTOM":
+                layout.prop(settings, "model_path")
 
 
 CLASSES = (SSGI_PT_main,)

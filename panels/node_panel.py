@@ -20,8 +20,10 @@ def _draw(layout, context):
     active = tree.nodes.active if tree is not None else None
     node = active if active is not None and ssgi_node.is_ssgi_node(active) else nodes[0]
     col = layout.column()
-    if hasattr(node, "ssgi_model"):
-        col.prop(node, "ssgi_model", text="Model")
+    if hasattr(node, "ssgi_model_choice"):
+        col.prop(node, "ssgi_model_choice", text="Model")
+        if node.ssgi_model_choice == "CUSTOM":
+            col.prop(node, "ssgi_model", text="File")
     if hasattr(node, "ssgi_working_res"):
         col.prop(node, "ssgi_working_res", text="Working Res", placeholder="auto")
     if hasattr(node, "ssgi_temporal"):

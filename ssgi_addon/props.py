@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import bpy
 
+from ..model import shipped as _shipped
 from ..model.learn import variants as _variants
 from ..model.learn.config import DEFAULT_MINUTES as _TRAIN_MINUTES, TrainConfig as _Train
 from .blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
@@ -16,19 +17,36 @@ from .pipeline.report import ReportConfig as _Report
 
 ROOM_MODES = [("diffuse", "Diffuse", "A box of diffuse primitives lit by lamps (the seed's rooms)"),
               ("artist", "Artist", "Principled, metal, glass and textured materials, emissive lights, skies, "
-                                   "open rooms and exteriors (docs/artist_rooms.md)"),
-              ("studio", "Studio", "A cyclorama in a dark stage lit by softboxes, metal and glass props "
-                                   "(docs/artist_rooms.md)"),
+                                   "open rooms and exteriors"),
+              ("studio", "Studio", "A cyclorama in a dark stage lit by softboxes, metal and glass props"),
               ("interior", "Interior", "Bright white and beige plaster rooms, closed or with windows, artist "
-                                       "materials and lights (docs/artist_rooms.md)")]
+                                       "materials and lights")]
+
+
+_MENU = [k for k, _, _ in _shipped.menu_items()]
+
+
+def _get_model_choice(settings) -> int:
+    return _MENU.index(_shipped.menu_choice(settings.model_path, settings.model_custom))
+
+
+def _set_model_choice(settings, i: int) -> None:
+    settings.model_path, settings.model_custom = _shipped.setting_for(_MENU[i], settings.model_path)
 
 
 class SSGI_SceneSettings(bpy.types.PropertyGroup):
     dataset_dir: bpy.props.StringProperty(name="Dataset", subtype="DIR_PATH", default="//ssgi_dataset/",
                                           description="Folder of the baked dataset (EXR samples + manifest.json)")
-    model_path: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
-                                         description="Model checkpoint (.pt; its .onnx export beside it runs without PyTorch) or an .onnx "
-                                                     "export; empty uses the shipped default model")
+    model_path: bpy.props.StringProperty(name="Model file", subtype="FILE_PATH", default="",
+                                         description="Your model: a checkpoint (.pt; its .onnx export beside it runs "
+                                                     "without PyTorch) or an .onnx export; empty uses the default "
+                                                     "model")
+    model_custom: bpy.props.BoolProperty(name="Custom model", default=False, options={"HIDDEN"},
+                                         description="The model menu shows Custom file (model_path holds the file)")
+    model_choice: bpy.props.EnumProperty(
+        name="Model", items=_shipped.menu_items(),
+        get=_get_model_choice, set=_set_model_choice,
+        description="The model that predicts the light: a shipped one, or a file of your own")
     # Train panel (ssgi_addon/pipeline/training.py, runtime/ui_jobs.py train)
     train_out: bpy.props.StringProperty(name="Save model as", subtype="FILE_PATH", default="",
                                         description="Checkpoint the training writes (best so far); empty: model.pt in the dataset folder")
@@ -67,8 +85,8 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
     fit_one_render: bpy.props.BoolProperty(name="One Render (no EEVEE GI)", default=False,
                                            description="Fit a model whose frames are one EEVEE render with ray tracing "
                                                        "and fast GI off: the fitted network gives the GI, a frame costs "
-                                                       "about what EEVEE's own GI costs at the same samples (measured on "
-                                                       "Mesa, docs/one_render.md; cli.py fit --one-render)")
+                                                       "about what EEVEE's own GI costs at the same samples (cli.py fit "
+                                                       "--one-render)")
     fit_one_render_kind: bpy.props.EnumProperty(
         name="Reads", default=_ONE_RENDER_DEFAULT,
         items=[("combined", "Combined Image", "The one render's Combined image: the frames render one pass fewer (no "

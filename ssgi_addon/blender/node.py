@@ -29,6 +29,8 @@ from pathlib import Path
 
 import bpy
 
+from ...model import shipped
+
 INNER_TREE = ".SSGI"
 IMAGE_NAME = "SSGI Prediction"
 NODE_LABEL = "SSGI"
@@ -38,7 +40,7 @@ MODEL_PROP = "ssgi_model"
 WORKRES_PROP = "ssgi_working_res"  # "auto" | "full" | "Nx" | "WxH" (model/infer/workres.py)
 PLACEHOLDER = (1.0, 0.0, 1.0, 1.0)  # magenta: "this is not a prediction"
 NOTE = "SSGI: shows a magenta placeholder unless rendered with Render SSGI (bpy.ops.ssgi.render / cli.py render)"
-DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "models" / "ssgi_default.pt"
+DEFAULT_MODEL = shipped.DEFAULT.path
 
 
 # --- the inner tree and its image -------------------------------------------------------------------
@@ -154,7 +156,8 @@ def scene_model(scene) -> str:
 
 def resolve_model(scene, override: str | None = None) -> Path:
     """The model file to use: ``override``, else the first SSGI node's setting, else the scene's, else the
-    shipped default. Relative Blender paths (``//``) are made absolute. Does not check existence."""
+    shipped default. A setting may name a shipped model (model/shipped.py). Relative Blender paths (``//``) are
+    made absolute. Does not check existence."""
     cand = override or ""
     if not cand:
         for n in ssgi_nodes(scene.compositing_node_group):
@@ -162,8 +165,9 @@ def resolve_model(scene, override: str | None = None) -> Path:
                 cand = node_model(n)
                 break
     cand = cand or scene_model(scene)
-    if not cand:
-        return DEFAULT_MODEL
+    named = shipped.resolve(cand) if not cand or cand.strip() in shipped.BY_NAME else None  # "" or a shipped name
+    if named is not None:
+        return named
     return Path(bpy.path.abspath(cand)).expanduser()
 
 

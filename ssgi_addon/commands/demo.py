@@ -36,7 +36,8 @@ def register_cli(sub) -> None:
                    help="Cycles samples for the reference; 0 skips it (default: %(default)s)")
     p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=D.denoise,
                    help="denoise the Cycles reference with OpenImageDenoise (default: on)")
-    p.add_argument("--model", default=None, help="model checkpoint (default: the shipped models/ssgi_default.pt)")
+    p.add_argument("--model", default=None, type=cliargs.model_arg,
+                   help=f"{cliargs.MODEL_HELP} (default: default)")
     p.add_argument("--exposure", type=cliargs.positive_float, default=D.exposure,
                    help="exposure of the PNG previews")
     p.set_defaults(func=run)

@@ -45,7 +45,8 @@ def register_cli(sub) -> None:
                    help="output path; '#' marks the frame number (as Blender's -o); default: the scene's output path")
     p.add_argument("--frames", type=cliargs.parse_frames, default=None,
                    help="frames to render: A-B, N or a list 1-3,7 (default: the scene's current frame)")
-    p.add_argument("--model", default=None, help="model checkpoint (default: the SSGI node's, or the shipped model)")
+    p.add_argument("--model", default=None, type=cliargs.model_arg,
+                   help=f"{cliargs.MODEL_HELP} (default: the SSGI node's, else the scene's, else default)")
     p.add_argument("--scene", default=None, help="scene name (default: the file's active scene)")
     p.add_argument("--samples", type=cliargs.positive_int, default=None,
                    help="EEVEE samples for the passes (default: the scene's render samples)")

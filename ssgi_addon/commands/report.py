@@ -46,7 +46,7 @@ def register_cli(sub) -> None:
     p.add_argument("--scenes", nargs="+", type=cliargs.existing_file, metavar="FILE.blend",
                    help="evaluate these .blend files instead: baked first into OUT/data (cli.py bake --scenes: "
                         "each camera at the current frame)")
-    p.add_argument("--models", nargs="+", type=cliargs.existing_file, required=True, metavar="MODEL.pt",
+    p.add_argument("--models", nargs="+", type=cliargs.existing_model, required=True, metavar="MODEL",
                    help="model checkpoints: the network sizes and the linear baseline (cli.py train / baseline)")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--max-scenes", type=cliargs.positive_int, default=D.max_scenes,

@@ -7,7 +7,7 @@ import os
 import sys
 
 from ...model import channels as ch
-from ...model.cliargs import existing_file, working_res
+from ...model.cliargs import existing_file, existing_model, model_arg, working_res
 from ..pipeline.learn import BaselineConfig, ExportConfig, PredictConfig
 from . import command_line
 
@@ -177,7 +177,9 @@ def register_cli(sub) -> None:
     p.set_defaults(func=run_baseline)
 
     p = sub.add_parser("predict", help="run a model on one sample EXR")
-    p.add_argument("--model", required=True, metavar="M", help="checkpoint (.pt) from train or baseline, or its .onnx export")
+    p.add_argument("--model", required=True, metavar="M", type=model_arg,
+                   help="a shipped model's name (default, one_render), a checkpoint (.pt) from train or baseline, or "
+                        "its .onnx export")
     p.add_argument("--input", required=True, metavar="SAMPLE.exr", help="a sample EXR holding the model's input groups")
     p.add_argument("--out", required=True, metavar="OUT.exr", help="prediction as an RGB float EXR (linear HDR)")
     p.add_argument("--png", metavar="OUT.png", help="also write a tonemapped sRGB preview")
@@ -195,7 +197,8 @@ def register_cli(sub) -> None:
                                    "checkpoint's metadata, and check it against torch on HDR inputs. The SSGI node, "
                                    "render and predict use M.onnx beside M.pt when torch is absent (or faster). "
                                    "Needs torch and the onnx package.")
-    p.add_argument("--model", required=True, metavar="M.pt", type=existing_file, help="checkpoint from train or baseline")
+    p.add_argument("--model", required=True, metavar="M.pt", type=existing_model,
+                   help="a shipped model's name (default, one_render) or a checkpoint from train or baseline")
     p.add_argument("--out", default=None, metavar="M.onnx", help="the ONNX file (default: beside the model, M.onnx)")
     p.set_defaults(func=run_export)
 

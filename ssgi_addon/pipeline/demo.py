@@ -45,7 +45,7 @@ class DemoConfig:
     samples: int = 1  # EEVEE samples of the SSGI passes and of EEVEE's own GI render
     ref_samples: int = 128  # Cycles samples for the reference; 0 skips it
     denoise: bool = True  # denoise the Cycles reference with OpenImageDenoise
-    model: str | None = None  # model checkpoint (None: the shipped models/ssgi_default.pt)
+    model: str | None = None  # a shipped model's name or a checkpoint (None: the shipped default)
     exposure: float = 1.0  # exposure of the PNG previews
 
     def check(self) -> None:
@@ -57,7 +57,7 @@ class DemoConfig:
         if min(self.size) < 1 or self.samples < 1 or self.ref_samples < 0 or not self.exposure > 0:
             raise UserError(f"size {self.size}, samples {self.samples}, ref_samples {self.ref_samples}, exposure "
                             f"{self.exposure}: size and samples must be positive, ref_samples >= 0, exposure > 0")
-        fault = cliargs.model_file_fault(self.model) if self.model else None
+        fault = cliargs.model_file_fault(cliargs.model_arg(self.model)) if self.model else None
         if fault:  # a folder, a text file, an image ... named as the model: say what it is, before any work
             raise UserError(f"--model {self.model}: {fault}")
 
@@ -137,7 +137,7 @@ def run(cfg: DemoConfig) -> dict:
     w, h = cfg.size
 
     torch_ok, torch_info = deps.torch_status()
-    model = Path(cfg.model) if cfg.model else node.DEFAULT_MODEL
+    model = Path(cliargs.model_arg(cfg.model)) if cfg.model else node.DEFAULT_MODEL
     from ...model.infer import onnx as ort_backend
     ort_ok = model.is_file() and ort_backend.available() and ort_backend.export_of(model) is not None
     if not torch_ok and not ort_ok:
