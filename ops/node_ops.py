@@ -15,7 +15,7 @@ from ..model.errors import UserError
 from ..ssgi_addon.blender import node as ssgi_node
 from ..ssgi_addon.blender.compositor import setup_scene
 from ..ssgi_addon.blender.predictor import pass_label
-from ..ssgi_addon.pipeline import render as ssgi_render
+from ..ssgi_addon.pipeline import farm, render as ssgi_render
 from ..ssgi_addon.runtime import ui_jobs
 from . import JobSteps
 
@@ -154,7 +154,37 @@ def draw_render_menu(self, context):
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Animation", icon="RENDER_ANIMATION").animation = True
 
 
-CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_export_onnx, SSGI_OT_render)
+class SSGI_OT_render_key(bpy.types.Operator):
+    """F12 and Ctrl+F12 with the extension enabled: in a scene set up for SSGI (an SSGI node in its compositor, the
+    compositor on) the SSGI frame, as Render SSGI Image / Animation make it (a still is shown, not written, as F12's
+    is); in any other scene exactly Blender's own render.render."""
+    bl_idname = "ssgi.render_key"
+    bl_label = "Render"
+    bl_description = ("Render the current frame or the animation: with SSGI in a scene set up for it, else as "
+                      "Blender renders")
+    bl_options = {"REGISTER"}
+
+    animation: bpy.props.BoolProperty(name="Animation", default=False,
+                                      description="Render the scene's frame range (else the current frame)")
+
+    @staticmethod
+    def set_up(scene) -> bool:
+        return bool(ssgi_node.ssgi_nodes(scene.compositing_node_group)) and scene.render.use_compositing
+
+    def _route(self, context, how: str):
+        if self.set_up(context.scene):
+            return bpy.ops.ssgi.render(how, animation=self.animation, write_still=self.animation)
+        return bpy.ops.render.render(how, animation=self.animation, use_viewport=True)
+
+    def invoke(self, context, event):
+        return self._route(context, "INVOKE_DEFAULT")
+
+    def execute(self, context):
+        return self._route(context, "EXEC_DEFAULT")
+
+
+CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_export_onnx, SSGI_OT_render, SSGI_OT_render_key)
+_KEYMAP_ITEMS: list = []  # (keymap, item) the extension added to Blender's add-on key configuration
 _MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu), ("TOPBAR_MT_render", draw_render_menu))
 
 
@@ -197,11 +227,29 @@ def register_extra():
             m.append(fn)
     if ssgi_render.on_render_pre not in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.append(ssgi_render.on_render_pre)
+    if farm.on_save_pre not in bpy.app.handlers.save_pre:
+        bpy.app.handlers.save_pre.append(farm.on_save_pre)
+    # F12 and Ctrl+F12 (the "Screen" keymap's render keys): Blender checks the add-on key configuration first
+    kc = bpy.context.window_manager.keyconfigs.addon if bpy.context.window_manager else None
+    if kc is not None:
+        km = kc.keymaps.new(name="Screen", space_type="EMPTY")
+        for ctrl in (False, True):
+            kmi = km.keymap_items.new(SSGI_OT_render_key.bl_idname, "F12", "PRESS", ctrl=ctrl)
+            kmi.properties.animation = ctrl
+            _KEYMAP_ITEMS.append((km, kmi))
 
 
 def unregister_extra():
     if ssgi_render.on_render_pre in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.remove(ssgi_render.on_render_pre)
+    if farm.on_save_pre in bpy.app.handlers.save_pre:
+        bpy.app.handlers.save_pre.remove(farm.on_save_pre)
+    for km, kmi in _KEYMAP_ITEMS:
+        try:
+            km.keymap_items.remove(kmi)
+        except (ReferenceError, RuntimeError):  # the key configuration went first (Blender quitting)
+            pass
+    _KEYMAP_ITEMS.clear()
     for menu, fn in _MENUS:
         m = getattr(bpy.types, menu, None)
         if m is not None:

@@ -30,6 +30,7 @@ def setup_scene(scene, model: str | None = None) -> dict:
     if model:
         node[ssgi_node.MODEL_PROP] = model
     scene.render.use_compositing = True
+    scene[ssgi_node.SHOT_START] = int(scene.frame_start)  # the shot's first frame for farm workers (pipeline/farm.py)
     return {"tree": tree.name, "node": node.name, "enabled_passes": enabled, "model": str(path)}
 
 

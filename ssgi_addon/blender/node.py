@@ -37,6 +37,9 @@ NODE_LABEL = "SSGI"
 MARKER = "ssgi_node"  # ID property on the inner tree: the layout version below
 TREE_VERSION = 1
 MODEL_PROP = "ssgi_model"
+# scene ID property: the scene's frame start when the file was last saved or set up (pipeline/farm.py: a farm worker's
+# -s overwrites frame_start, and the temporal mode blends nothing before the shot's first frame)
+SHOT_START = "ssgi_shot_start"
 WORKRES_PROP = "ssgi_working_res"  # "auto" | "full" | "Nx" | "WxH" (model/infer/workres.py)
 PLACEHOLDER = (1.0, 0.0, 1.0, 1.0)  # magenta: "this is not a prediction"
 NOTE = "SSGI: shows a magenta placeholder unless rendered with Render SSGI (bpy.ops.ssgi.render / cli.py render)"

@@ -122,8 +122,12 @@ class RenderSession:
     def __init__(self, scene, frames=None, model: str | None = None, out: str | None = None, write: bool = True,
                  samples: int | None = None, save_passes: str | None = None, keep_groups: bool = False,
                  predictor=None, checks: bool = True, runtime: str | None = None, device: str | None = None,
-                 pass_options: dict | None = None, working_res: str | None = None, temporal: str | None = None):
+                 pass_options: dict | None = None, working_res: str | None = None, temporal: str | None = None,
+                 shot_start: int | None = None):
         self.scene = scene
+        # the shot's first frame, before which the temporal mode blends nothing (None: scene.frame_start; a farm
+        # worker whose range Blender's -s set gives the file's own, pipeline/farm.py)
+        self.shot_start = shot_start
         self.frames = list(frames) if frames is not None else [scene.frame_current]
         if not self.frames:
             raise UserError("no frames to render")
@@ -495,7 +499,7 @@ def on_render_pre(scene, *_args):
         for n in nodes:
             n.label = "SSGI: placeholder, use Render SSGI"
         log(f"scene {scene.name!r} frame {scene.frame_current}: a plain render shows the SSGI node's magenta "
-            f"placeholder, not a prediction. Use Render > Render SSGI Image/Animation, bpy.ops.ssgi.render() "
-            f"or 'cli.py render'.")
+            f"placeholder, not a prediction. Press F12 / Ctrl+F12 (with the extension enabled they render SSGI), or "
+            f"use Render > Render SSGI Image/Animation, bpy.ops.ssgi.render(), farm_render.py or 'cli.py render'.")
     except Exception as e:  # a handler must never break the artist's render
         log(f"render_pre check failed: {type(e).__name__}: {e}")

@@ -58,12 +58,14 @@ def camera_at(scene, frame: int):
     return (before[-1] if before else marks[0]).camera
 
 
-def history_frames(scene, frame: int, window: int) -> list[int]:
-    """t-1, ..., t-window, none before ``scene.frame_start`` and none across a camera cut."""
+def history_frames(scene, frame: int, window: int, start: int | None = None) -> list[int]:
+    """t-1, ..., t-window, none before the shot's first frame (``start``, else ``scene.frame_start``) and none across
+    a camera cut."""
     cam = camera_at(scene, frame)
+    first = scene.frame_start if start is None else int(start)
     out = []
     for f in range(frame - 1, frame - 1 - window, -1):
-        if f < scene.frame_start or camera_at(scene, f) != cam:
+        if f < first or camera_at(scene, f) != cam:
             break
         out.append(f)
     return out
@@ -110,7 +112,7 @@ class History:
 
     def prepare(self, frame: int, info: dict) -> list[dict]:
         """The entries of the frames ``frame`` blends (rendering the missing ones), t-1 first."""
-        frames = history_frames(self.s.scene, frame, self.window)
+        frames = history_frames(self.s.scene, frame, self.window, getattr(self.s, "shot_start", None))
         info["history_frames"] = frames
         return [self._entry(f, info) for f in frames]
 
