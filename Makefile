@@ -23,7 +23,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q tests/blender tests/hard_cases && exit $$unit
 
 build: $(STAMP)
-	$(PY) scripts/blender_ext.py build --source-dir . --output-dir dist
+	$(PY) scripts/blender_ext.py build --source-dir . --output-dir dist --split-platforms
 
 validate: $(STAMP)
 	$(PY) scripts/blender_ext.py validate .

@@ -101,18 +101,20 @@ if ! quiet_pip -r requirements.lock; then
   quiet_pip --extra-index-url https://download.pytorch.org/whl/cpu -r requirements.lock
 fi
 
-# --- the wheels the extension zip bundles (blender_manifest.toml `wheels`) ----------------------------------
-# OpenEXR's (1.7 MB) is committed; onnxruntime's (23.6 MB) is fetched here rather than kept in git, and checked
-# against wheels/SHA256SUMS, so that `make build` packs the very file the tests ran with.
+# --- the wheels the extension zips bundle (blender_manifest.toml `wheels`, one zip per platform) ------------
+# OpenEXR's Linux x86-64 wheel (1.7 MB) is committed; the others (onnxruntime's 14-24 MB each, OpenEXR's for the other
+# platforms) are fetched here for the platform their file names carry, rather than kept in git, and checked against
+# wheels/SHA256SUMS, so that `make build` packs the very files the tests ran with.
 while read -r sum name; do
   [ -n "$name" ] || continue
   if [ ! -f "wheels/$name" ]; then
     pkg=$(echo "$name" | cut -d- -f1); ver=$(echo "$name" | cut -d- -f2)
+    plat=$(basename "$name" .whl | rev | cut -d- -f1 | rev)  # the wheel's platform tag: win_amd64, macosx_14_0_arm64 ...
     say "fetching the bundled wheel $name"
     tmp=$(mktemp -d)
     .venv/bin/python -m pip download --disable-pip-version-check --no-input -q --no-deps --only-binary :all: \
-      --platform manylinux_2_28_x86_64 --python-version 3.11 -d "$tmp" "$pkg==$ver" 2> >(grep -v -E "$PIP_NOISE" >&2) \
-      || { say "ERROR: could not download $pkg==$ver (the extension zip bundles it)"; exit 1; }
+      --platform "$plat" --python-version 3.11 -d "$tmp" "$pkg==$ver" 2> >(grep -v -E "$PIP_NOISE" >&2) \
+      || { say "ERROR: could not download $pkg==$ver for $plat (the extension zips bundle it)"; exit 1; }
     mv "$tmp/$name" "wheels/$name" 2>/dev/null || { say "ERROR: pip gave $(ls "$tmp"), not wheels/$name"; exit 1; }
     rm -rf "$tmp"
   fi

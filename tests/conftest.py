@@ -154,15 +154,20 @@ BLENDER_EXT = [sys.executable, str(ROOT / "scripts" / "blender_ext.py")]  # Blen
 
 
 @pytest.fixture(scope="session")
-def built_zip(tmp_path_factory) -> Path:
-    """The extension zip, built from the working tree by Blender's own ``blender_ext.py build``."""
+def built_zips(tmp_path_factory) -> dict[str, Path]:
+    """The extension's zips, one per platform ({"linux_x64": path, ...}), built from the working tree by Blender's
+    own ``blender_ext.py build --split-platforms``, as `make build` builds them."""
     out = tmp_path_factory.mktemp("dist") / "out"  # does not exist yet: the wrapper must create it
-    p = subprocess.run([*BLENDER_EXT, "build", "--source-dir", str(ROOT), "--output-dir", str(out)],
-                       capture_output=True, text=True, timeout=120)
+    p = subprocess.run([*BLENDER_EXT, "build", "--source-dir", str(ROOT), "--output-dir", str(out),
+                        "--split-platforms"], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stdout + p.stderr
-    zips = list(out.glob("*.zip"))
-    assert len(zips) == 1, (zips, p.stdout)
-    return zips[0]
+    return {z.stem.split("-")[-1]: z for z in sorted(out.glob("*.zip"))}
+
+
+@pytest.fixture(scope="session")
+def built_zip(built_zips) -> Path:
+    """The zip of the platform the tests run on (Linux x86-64)."""
+    return built_zips["linux_x64"]
 
 
 # Makes `import torch` fail in every Python started with this folder on PYTHONPATH (sitecustomize runs at
