@@ -148,10 +148,15 @@ def draw_add_menu(self, context):
 
 
 def draw_render_menu(self, context):
+    """At the top of the Render menu: the SSGI renders (F12 and Ctrl+F12 call them in a set-up scene) and, in a
+    set-up scene, a line saying that the menu's own Render Image / Animation below show the placeholder (Python
+    cannot route them), before any frame is rendered."""
     layout = self.layout
-    layout.separator()
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Image", icon="RENDER_STILL").animation = False
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Animation", icon="RENDER_ANIMATION").animation = True
+    if SSGI_OT_render_key.set_up(context.scene):
+        layout.label(text="SSGI: F12 renders SSGI here; Render Image below shows a placeholder", icon="INFO")
+    layout.separator()
 
 
 class SSGI_OT_render_key(bpy.types.Operator):
@@ -185,7 +190,8 @@ class SSGI_OT_render_key(bpy.types.Operator):
 
 CLASSES = (SSGI_OT_add_node, SSGI_OT_setup, SSGI_OT_export_onnx, SSGI_OT_render, SSGI_OT_render_key)
 _KEYMAP_ITEMS: list = []  # (keymap, item) the extension added to Blender's add-on key configuration
-_MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu), ("TOPBAR_MT_render", draw_render_menu))
+# (menu, draw function, prepend): the render entries go first in the Render menu
+_MENUS = (("NODE_MT_compositor_node_add_all", draw_add_menu, False), ("TOPBAR_MT_render", draw_render_menu, True))
 
 
 def register_extra():
@@ -221,10 +227,10 @@ def register_extra():
         set=lambda self, i: self.__setitem__("ssgi_temporal", modes[i]),
         description="Blend each frame with the motion-reprojected predictions of the frames before it "
                     "where the surface is the same (less flicker)")
-    for menu, fn in _MENUS:
+    for menu, fn, first in _MENUS:
         m = getattr(bpy.types, menu, None)
         if m is not None:
-            m.append(fn)
+            (m.prepend if first else m.append)(fn)
     if ssgi_render.on_render_pre not in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.append(ssgi_render.on_render_pre)
     if farm.on_save_pre not in bpy.app.handlers.save_pre:
@@ -250,7 +256,7 @@ def unregister_extra():
         except (ReferenceError, RuntimeError):  # the key configuration went first (Blender quitting)
             pass
     _KEYMAP_ITEMS.clear()
-    for menu, fn in _MENUS:
+    for menu, fn, _first in _MENUS:
         m = getattr(bpy.types, menu, None)
         if m is not None:
             m.remove(fn)

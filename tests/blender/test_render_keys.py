@@ -41,6 +41,12 @@ assert bpy.ops.ssgi.setup(model="one_render") == {"FINISHED"}
 r["ssgi"] = sorted(bpy.ops.ssgi.render_key(animation=False))
 shutil.copy(result(), sys.argv[1] + "/ssgi_key.exr")
 r["state"] = node.image_state(sc).get("state")
+from ssgi.ops import node_ops
+from tests import ui_recorder
+rec = ui_recorder.RecordingLayout()
+node_ops.draw_render_menu(type("M", (), {"layout": rec})(), bpy.context)
+r["menu_labels"] = rec.labels()
+r["menu_first"] = bpy.types.TOPBAR_MT_render._dyn_ui_initialize()[0] is node_ops.draw_render_menu
 bpy.ops.render.render()  # what the menu's Render Image does: the placeholder, said on stderr
 shutil.copy(result(), sys.argv[1] + "/menu.exr")
 r["after_plain"] = node.image_state(sc).get("state")
@@ -67,4 +73,6 @@ def test_f12_renders_ssgi_in_a_set_up_scene_and_blenders_own_image_elsewhere(tmp
     assert r["state"] == "prediction" and np.abs(ssgi_frame - magenta).max(-1).min() > 0.05
     assert np.abs(ssgi_frame - _rgb(tmp_path / "plain_own.exr")).mean() > 1e-3  # light the plain render lacks
     assert r["after_plain"] == "placeholder" and "Press F12" in p.stderr
+    # the Render menu says so before anything renders, at its top
+    assert r["menu_first"] and any("F12 renders SSGI" in t for t in r["menu_labels"]), r["menu_labels"]
     assert (np.abs(menu - magenta).max(-1) < 1e-3).mean() > 0.5  # the menu's render: the placeholder it names
