@@ -51,8 +51,8 @@ def test_build_zip_contents(built_zip):
                    "ops/deps_ops.py", "panels/main_panel.py", "model/channels.py", "model/dataset/exrio.py"):
         assert needed in names, needed
     import tomllib
-    for w in tomllib.loads((ROOT / "blender_manifest.toml").read_text())["wheels"]:
-        assert w.removeprefix("./") in names, w
+    for w in tomllib.loads((ROOT / "blender_manifest.toml").read_text())["wheels"]:  # this platform's (Linux x86-64)
+        assert (w.removeprefix("./") in names) == w.endswith("manylinux_2_28_x86_64.whl"), w
     # every tracked package module of the checkout is in the zip
     tracked = subprocess.run(["git", "ls-files", "*.py"], cwd=ROOT, capture_output=True, text=True).stdout.split()
     for f in tracked:
