@@ -56,21 +56,31 @@ def columns(raw: dict) -> list[tuple[str, str]]:
     return cols
 
 
+def scene_keys(raw: dict) -> list[str]:
+    """The report's scene keys ("living_room:camera:1", ...) in SCENES' order."""
+    keys = list(raw["methods"]["eevee_gi_default"]["per_scene"])
+    return sorted(keys, key=lambda k: SCENES.index(k.split(":")[0]) if k.split(":")[0] in SCENES else len(SCENES))
+
+
+def mean(raw: dict, key: str, field: str) -> float:
+    """The mean over the scenes of a method's ``field`` (psnr, ssim, flip) or, with "whole_s", its seconds."""
+    rows = raw["methods"][key]["per_scene"]
+    vals = [r["time"]["whole_s"] if field == "whole_s" else r[field] for r in rows.values()]
+    return sum(vals) / len(vals)
+
+
 def table(raw: dict) -> str:
     cols = columns(raw)
-    scene_keys = list(next(iter(raw["methods"].values()))["per_scene"])
     lines = ["| scene | " + " | ".join(t for _, t in cols) + " |", "|---|" + "---:|" * len(cols)]
-    for sk in scene_keys:
+    for sk in scene_keys(raw):
         name = sk.split(":")[0]
         cells = []
         for key, _ in cols:
             r = raw["methods"][key]["per_scene"].get(sk)
             cells.append(f"{r['psnr']:.2f} dB, {r['time']['whole_s']:.2f} s" if r else "n/a")
         lines.append(f"| {TITLES.get(name, name)} | " + " | ".join(cells) + " |")
-    cells = []
-    for key, _ in cols:
-        s = raw["methods"][key]["summary"]
-        cells.append(f"{s['psnr']:.2f} / {s['ssim']:.3f} / {s['flip']:.3f}, {s['whole_s']:.2f} s")
+    cells = [f"{mean(raw, key, 'psnr'):.2f} / {mean(raw, key, 'ssim'):.3f} / {mean(raw, key, 'flip'):.3f}, "
+             f"{mean(raw, key, 'whole_s'):.2f} s" for key, _ in cols]
     lines.append("| **mean** PSNR / SSIM / FLIP, seconds | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -84,14 +94,16 @@ def wins(raw: dict) -> str:
             continue
         m = raw["methods"][key]
         above = sum(1 for sk, r in m["per_scene"].items() if r["psnr"] > eevee[sk]["psnr"])
-        lead = m["summary"]["psnr"] - raw["methods"]["eevee_gi_default"]["summary"]["psnr"]
+        lead = mean(raw, key, "psnr") - mean(raw, "eevee_gi_default", "psnr")
         rung = next((n for n in LADDER if f"cycles_oidn_{n}" in raw["methods"]
-                     and raw["methods"][f"cycles_oidn_{n}"]["summary"]["psnr"] > m["summary"]["psnr"]), None)
-        cost = raw["methods"][f"cycles_oidn_{rung}"]["summary"]["whole_s"] if rung else None
+                     and mean(raw, f"cycles_oidn_{n}", "psnr") > mean(raw, key, "psnr")), None)
+        cost = mean(raw, f"cycles_oidn_{rung}", "whole_s") if rung else None
+        ratio = mean(raw, key, "whole_s") / mean(raw, "eevee_gi_default", "whole_s")
         out.append(f"- **{title}**: above EEVEE GI on {above} of {len(m['per_scene'])} scenes, {lead:+.2f} dB on "
-                   f"average; " + (f"Cycles {rung} spp + OIDN scores higher on average in {cost:.2f} s a frame "
-                                   f"against its {m['summary']['whole_s']:.2f} s." if rung else
-                                   "no rung of the Cycles + OIDN ladder scores higher on average."))
+                   f"average, at {ratio:.2f}x its seconds; "
+                   + (f"Cycles {rung} spp + OIDN scores higher on average in {cost:.2f} s a frame against its "
+                      f"{mean(raw, key, 'whole_s'):.2f} s." if rung else
+                      "no rung of the Cycles + OIDN ladder scores higher on average."))
     return "\n".join(out)
 
 
@@ -106,7 +118,7 @@ def write_doc(raw: dict, report_dir: Path, doc: Path, size: str, command: str) -
 
 Where SSGI stands on the artist test set: five scripted scenes that no training room resembles
 ([artist_scenes.md](artist_scenes.md)), at {size}, against Cycles {s.get('ref_samples', 128)} spp + OIDN. PSNR over
-the geometry pixels; SSIM and FLIP in the mean row. Seconds: each method's whole frame (every render and the
+the geometry pixels; the last row is the mean over the scenes of PSNR, SSIM and FLIP. Seconds: each method's whole frame (every render and the
 prediction) on this machine, warm (shader compilation and start-up taken out by an untimed first render). SSGI is
 composed as the node renders it; EEVEE GI is EEVEE's ray tracing + fast GI at the same samples as SSGI's renders
 ({s.get('eevee_samples', 16)}).
@@ -139,17 +151,19 @@ def main(argv=None) -> int:
     ap.add_argument("--work", default="out/results", help="scenes and the report's folder (default out/results)")
     ap.add_argument("--size", default="320x180", help="render size (default 320x180)")
     ap.add_argument("--doc", default="docs/results.md", help="the page written (default docs/results.md)")
+    ap.add_argument("--doc-only", action="store_true", help="write the page from WORK's finished report, no renders")
     a = ap.parse_args(argv)
     py = sys.executable
     work = (ROOT / a.work).resolve()
     scenes = work / "scenes"
-    if not all((scenes / f"{n}.blend").is_file() for n in SCENES):
-        run([py, "benchmarks/artist_scenes.py", "--out", str(scenes), "--size", a.size])
     report = work / "report"
-    run([py, "cli.py", "report", "--scenes", *[str(scenes / f"{n}.blend") for n in SCENES],
-         "--models", "models/ssgi_default.pt", "models/ssgi_one_render.pt", "--out", str(report), "--size", a.size,
-         "--ref-samples", "128", "--spp", ",".join(map(str, LADDER)), "--eevee-samples", "16",
-         "--eevee-high-samples", "64", "--no-scaling", "--temporal-frames", "0", "--reference-scenes", "0"])
+    if not a.doc_only and not all((scenes / f"{n}.blend").is_file() for n in SCENES):
+        run([py, "benchmarks/artist_scenes.py", "--out", str(scenes), "--size", a.size])
+    if not a.doc_only:
+        run([py, "cli.py", "report", "--scenes", *[str(scenes / f"{n}.blend") for n in SCENES],
+             "--models", "models/ssgi_default.pt", "models/ssgi_one_render.pt", "--out", str(report), "--size", a.size,
+             "--ref-samples", "128", "--spp", ",".join(map(str, LADDER)), "--eevee-samples", "16",
+             "--eevee-high-samples", "64", "--no-scaling", "--temporal-frames", "0", "--reference-scenes", "0"])
     raw = json.loads((report / "report.json").read_text())
     command = ".venv/bin/python benchmarks/results.py" + (f" --size {a.size}" if a.size != "320x180" else "")
     write_doc(raw, report, ROOT / a.doc, a.size, command)
