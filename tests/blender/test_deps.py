@@ -95,7 +95,7 @@ def test_without_torch_extension_enables_panels_draw_and_bake_side_imports(built
     assert r["torch_in_modules"] is False  # nothing imported torch behind the blocker's back either
     main = r["panels"]["SSGI_PT_main"]
     assert any("PyTorch missing" in t for t in main["labels"]), main
-    assert {"dataset_dir", "model_path"} <= set(main["props"])
+    assert {"dataset_dir", "model_choice"} <= set(main["props"])  # the model menu (its file field: Custom only)
     p = r["prefs"]
     assert "PyTorch: not installed" in p["labels"]
     # the installer is shown, greyed out while online access is off (the factory default in background)

@@ -463,6 +463,7 @@ json.dump({{"panel_ops": sorted(set(o for o, _ in rec.operators())), "panel_prop
            "handler": node_ops.ssgi_render.on_render_pre in bpy.app.handlers.render_pre}}, open({str(res)!r}, "w"))
 ssgi.unregister()
 assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_model")
+assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_model_choice")
 assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_working_res")
 assert not hasattr(bpy.types.CompositorNodeGroup, "ssgi_temporal")
 assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
@@ -474,7 +475,8 @@ assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
     assert r["n"] == 5
     assert r["passes"] == [True, True, True, True] and r["ao"] is False
     assert r["add_menu"] and r["render_menu"] and r["handler"]
-    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model", "ssgi_working_res",
+    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model_choice",
+                                                                                          "ssgi_working_res",
                                                                                           "ssgi_temporal"]
 
 
