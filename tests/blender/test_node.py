@@ -475,9 +475,8 @@ assert node_ops.ssgi_render.on_render_pre not in bpy.app.handlers.render_pre
     assert r["n"] == 5
     assert r["passes"] == [True, True, True, True] and r["ao"] is False
     assert r["add_menu"] and r["render_menu"] and r["handler"]
-    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == ["ssgi_model_choice",
-                                                                                          "ssgi_working_res",
-                                                                                          "ssgi_temporal"]
+    assert r["panel_ops"] == ["ssgi.render", "ssgi.setup"] and r["panel_props"] == [
+        "ssgi_model_choice", "ssgi_model", "ssgi_working_res", "ssgi_temporal"]  # a file set up: the menu's Custom
 
 
 # ---------------------------------------------------------------- ops.TimerSteps: the modal loop of Bake and Render SSGI
