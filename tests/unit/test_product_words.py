@@ -20,9 +20,6 @@ PATTERNS = re.compile("|".join([
     re.escape(_W),
 ]), re.IGNORECASE)
 SKIPPED = {"CHANGELOG.md"}  # the history, by design
-# the shipped models' descriptions (scripts/ship_model.py writes them from the checkpoints): their training provenance
-# is checked on its own below
-MODEL_NOTES = ("models/ssgi_default.json", "models/ssgi_one_render.json", "models/ssgi_fit_start.json")
 
 
 def is_binary(path: Path) -> bool:
@@ -54,16 +51,9 @@ def tracked_files() -> list[str]:
 
 
 def test_no_tracked_file_names_a_session_an_issue_number_or_a_machine_path():
-    hits = scan([p for p in tracked_files() if p not in MODEL_NOTES], ROOT)
+    hits = scan(tracked_files(), ROOT)
     assert not hits, (f"{len(hits)} line(s) speak of the project's history or a machine path (say what the code "
                       "does instead; history goes to CHANGELOG.md):\n" + "\n".join(hits))
-
-
-@pytest.mark.xfail(strict=True, reason="the shipped checkpoints record the absolute data paths and the channel notes "
-                   "of the runs that trained them; they lose them when retrained from repo-relative commands")
-def test_the_shipped_models_descriptions_name_no_session_issue_or_machine_path():
-    hits = scan(MODEL_NOTES, ROOT)
-    assert not hits, "\n".join(hits)
 
 
 def test_the_scan_finds_a_planted_session_and_a_machine_path(tmp_path):
@@ -73,7 +63,7 @@ def test_the_scan_finds_a_planted_session_and_a_machine_path(tmp_path):
                        "y = 2\n"
                        f"OUT = '{_T}x'\n"
                        f"# see {_I.capitalize()} 48\n"
-                       "z = 'RenderSession 3 and /tmpfile are fine'\n")
+                       "z = 'RenderSession(3) and /tmpfile are fine'\n")
     (tmp_path / "image.bin").write_bytes(b"\0" + f"{_S} 7".encode())
     hits = scan(["planted.py", "image.bin", "absent.txt"], tmp_path)
     assert [h.split(":")[:2] for h in hits] == [["planted.py", "2"], ["planted.py", "4"], ["planted.py", "5"]], hits
