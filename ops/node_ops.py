@@ -154,7 +154,7 @@ def draw_render_menu(self, context):
     layout = self.layout
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Image", icon="RENDER_STILL").animation = False
     layout.operator(SSGI_OT_render.bl_idname, text="Render SSGI Animation", icon="RENDER_ANIMATION").animation = True
-    if SSGI_OT_render_key.set_up(context.scene):
+    if ssgi_node.is_set_up(context.scene):
         layout.label(text="SSGI: F12 renders SSGI here; Render Image below shows a placeholder", icon="INFO")
     layout.separator()
 
@@ -172,12 +172,8 @@ class SSGI_OT_render_key(bpy.types.Operator):
     animation: bpy.props.BoolProperty(name="Animation", default=False,
                                       description="Render the scene's frame range (else the current frame)")
 
-    @staticmethod
-    def set_up(scene) -> bool:
-        return bool(ssgi_node.ssgi_nodes(scene.compositing_node_group)) and scene.render.use_compositing
-
     def _route(self, context, how: str):
-        if self.set_up(context.scene):
+        if ssgi_node.is_set_up(context.scene):
             return bpy.ops.ssgi.render(how, animation=self.animation, write_still=self.animation)
         return bpy.ops.render.render(how, animation=self.animation, use_viewport=True)
 

@@ -61,6 +61,11 @@ def ssgi_nodes(tree) -> list:
     return [n for n in tree.nodes if is_ssgi_node(n)] if tree is not None else []
 
 
+def is_set_up(scene) -> bool:
+    """Whether ``scene`` renders through an SSGI node: one in its compositor, and the compositor on."""
+    return bool(ssgi_nodes(scene.compositing_node_group)) and scene.render.use_compositing
+
+
 def ensure_image(width: int = 16, height: int = 16):
     """The float image datablock the render path fills; made (magenta placeholder) when missing."""
     img = bpy.data.images.get(IMAGE_NAME)

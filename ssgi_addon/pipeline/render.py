@@ -488,10 +488,9 @@ def on_render_pre(scene, *_args):
     if _ACTIVE:
         return
     try:
-        tree = scene.compositing_node_group
-        nodes = ssgi_node.ssgi_nodes(tree)
-        if not nodes or not scene.render.use_compositing:
+        if not ssgi_node.is_set_up(scene):
             return
+        nodes = ssgi_node.ssgi_nodes(scene.compositing_node_group)
         r = scene.render
         w = max(1, r.resolution_x * r.resolution_percentage // 100)
         h = max(1, r.resolution_y * r.resolution_percentage // 100)

@@ -6,44 +6,19 @@ two and three disjoint ranges, and a worker given ``-- --frames 4-6``, each in i
 the same frames bit for bit; a file it cannot render exits 2 with one line."""
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pytest
 
 from ..conftest import ROOT, run_py
-from .test_temporal import _read_exr
+from .test_temporal import SCENE, _read_exr
 
-SHOT = r'''
-import math, sys
-import bpy, ssgi
-from ssgi.ssgi_addon.blender.temporal_shot import (diffuse_material as mat, linear_keys as linear, point_lamp,
-                                                   wavy_floor)
-bpy.ops.wm.read_factory_settings(use_empty=True)
+SHOT = SCENE + r'''
+import ssgi
+sc = build(last=6)
 ssgi.register()
-sc = bpy.context.scene
-sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 64, 36, 100
-sc.frame_start, sc.frame_end = 1, 6
-sc.eevee.taa_render_samples = 1
-wavy_floor((0.8, 0.7, 0.5), 5, 0.15, 1.0, 0.25)
-bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 3, 2), rotation=(math.radians(90), 0, 0))
-bpy.context.object.data.materials.append(mat("wall", (0.3, 0.5, 0.8)))
-bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-1, 0, 0.6))
-cube = bpy.context.object
-cube.data.materials.append(mat("cube", (0.9, 0.2, 0.1)))
-point_lamp(sc, 800, 0.2, (2, -2, 4))
-cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
-sc.collection.objects.link(cam)
-sc.camera = cam
-cam.location, cam.rotation_euler = (-0.6, -6, 3), (math.radians(70), 0, 0)
-for obj, end in ((cube, (1.0, 0.3, 0.6)), (cam, (0.6, -5.6, 3))):
-    obj.keyframe_insert("location", frame=1)
-    obj.location = end
-    obj.keyframe_insert("location", frame=6)
-    linear(obj)
 if sys.argv[2] == "setup":
     assert bpy.ops.ssgi.setup(model="one_render") == {"FINISHED"}  # a shipped model by name
-sc.frame_start = 1
 bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
 print("SHOT_START", sc.get("ssgi_shot_start"))
 '''

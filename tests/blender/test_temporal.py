@@ -24,11 +24,12 @@ import bpy
 from ssgi.ssgi_addon.blender.temporal_shot import (diffuse_material as mat, linear_keys as linear, point_lamp,
                                                    wavy_floor)
 
-def build(still=False, cut_at=None):
+def build(still=False, cut_at=None, last=3):
+    """The moving scene over frames 1..last (the cube and the camera keyed at 1 and at ``last``)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 64, 36, 100
-    sc.frame_start, sc.frame_end = 1, 3
+    sc.frame_start, sc.frame_end = 1, last
     sc.eevee.taa_render_samples = 1
     wavy_floor((0.8, 0.7, 0.5), 5, 0.15, 1.0, 0.0 if still else 0.25)
     bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 3, 2), rotation=(math.radians(90), 0, 0))
@@ -45,7 +46,7 @@ def build(still=False, cut_at=None):
         for obj, end in ((cube, (1.0, 0.3, 0.6)), (cam, (0.6, -5.6, 3))):
             obj.keyframe_insert("location", frame=1)
             obj.location = end
-            obj.keyframe_insert("location", frame=3)
+            obj.keyframe_insert("location", frame=last)
             linear(obj)
     if cut_at is not None:
         cam2 = bpy.data.objects.new("cam2", cam.data)
