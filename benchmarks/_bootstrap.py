@@ -14,16 +14,7 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-import cli  # noqa: E402
-
-cli.load_package()
-
-
-def empty_scene():
-    """Blender reset to factory settings with an empty file; its scene."""
-    import bpy
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    return bpy.context.scene
+from scenes import empty_scene  # noqa: E402,F401  (importing scenes loads the checkout as package ssgi)
 
 
 def rooms(seeds, size):

@@ -25,7 +25,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-import artist_scenes  # noqa: E402
+from scenes import artist as artist_scenes  # noqa: E402
 
 
 def make_model(path, target="ref_diffuse", spec="albedo,normal,depth,direct,emission,lit", seed=0) -> str:

@@ -1,6 +1,6 @@
 """Benchmark: what each image component costs EEVEE against Cycles, on the artist test set.
 
-For each artist scene (benchmarks/artist_scenes.py) it renders
+For each artist scene (scenes/artist.py) it renders
 - Cycles at --spp + OIDN: the whole image ``ref`` and its diffuse part ``ref_diffuse`` (Diffuse Color x
   (Diffuse Direct + Indirect), denoised by the compositor's OIDN node); Cycles' rest = ref - ref_diffuse;
 - EEVEE's own render at the scene's settings (ray tracing and fast GI on) at --eevee-samples
@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
-import artist_scenes as A  # noqa: E402  (benchmarks/ is on sys.path: the script's own folder)
+from scenes import artist as A  # noqa: E402  (benchmarks/ is on sys.path: the script's own folder)
 import numpy as np  # noqa: E402
 
 from ssgi.model import images, metrics  # noqa: E402

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/fit_shot.py --out OUT [--shots living_room room] [--size 240x135] [--frames 48]
         [--views 24] [--minutes 15] [--threads 2] [--time-size 960x540] [--skip-fit]
 
-For each shot of benchmarks/shot_scenes.py: builds OUT/NAME.blend, runs ``cli.py fit --blend OUT/NAME.blend
+For each shot of scenes/shots.py: builds OUT/NAME.blend, runs ``cli.py fit --blend OUT/NAME.blend
 --out OUT/NAME.pt --frames 1-N`` (bake included, one budget), and collects the report's withheld-frame scores
 (the fitted model as the node renders it, the generic shipped model, Cycles 1 spp + OIDN, against Cycles 16 spp
 + OIDN). Then, on the first shot at ``--time-size``: one SSGI frame through the render path with the fitted
@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
-import shot_scenes  # noqa: E402
+from scenes import shots as shot_scenes  # noqa: E402
 
 
 def uptime() -> str:

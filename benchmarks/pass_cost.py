@@ -1,7 +1,7 @@
 """Benchmark: what each render of a whole SSGI frame costs, against EEVEE's own GI render
 (ray tracing + fast GI) at the same samples, in the same run.
 
-For each artist scene (benchmarks/artist_scenes.py) at --size, after an untimed warm-up of every render at
+For each artist scene (scenes/artist.py) at --size, after an untimed warm-up of every render at
 64x36 (Mesa compiles the scene's shaders once), it renders
 - EEVEE GI: ``report_run.render_eevee_gi`` (ray tracing + fast GI at their defaults, the scene's own world and
   lights) at the scene's samples (16);
@@ -46,7 +46,7 @@ import time
 from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
-import artist_scenes as A  # noqa: E402
+from scenes import artist as A  # noqa: E402
 from pass_flags import cpu_s, optional_pass_flags  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -131,7 +131,7 @@ def _cmp(a, b) -> dict:
 
 
 def open_shot(path: str, frame: int):
-    """A .blend of one's own (e.g. benchmarks/shot_scenes.py's) at ``frame``, at the warm-up size."""
+    """A .blend of one's own (e.g. scenes/shots.py's) at ``frame``, at the warm-up size."""
     import bpy
     bpy.ops.wm.open_mainfile(filepath=str(path))
     scene = bpy.context.scene

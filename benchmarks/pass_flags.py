@@ -7,7 +7,7 @@ on, the artist scene's own samples), against the same render writing only Combin
 Each render's wall-clock seconds are printed and kept, and its CPU seconds beside them (``cpu_s``, the JSON's
 "cpu_s": steadier on a shared machine).
 
-The scenes are benchmarks/artist_scenes.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
+The scenes are scenes/artist.py's .blend files (``--out`` of that script). Per scene: one untimed warm-up
 render at 64x36 with every pass on (Mesa compiles the shaders once), then ``--repeats`` rounds of one render per
 configuration in ``CONFIGS`` (Combined only; Combined + one pass; the five passes a one-render model reads; the five +
 the motion vectors of the temporal mode), all with ray tracing + fast GI on, ``NO_GI`` (Combined only with both off:
@@ -137,7 +137,7 @@ def machine_speed() -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenes", required=True, help="folder of benchmarks/artist_scenes.py's .blend files")
+    ap.add_argument("--scenes", required=True, help="folder of scenes/artist.py's .blend files")
     ap.add_argument("--names", nargs="+", default=["cornell_emissive", "exterior"])
     ap.add_argument("--size", type=parse_size, default=(960, 540))
     ap.add_argument("--repeats", type=int, default=2)

@@ -3,7 +3,7 @@
 
     .venv/bin/python benchmarks/results.py [--work out/results] [--size 320x180] [--doc docs/results.md]
 
-1. builds the five artist scenes (benchmarks/artist_scenes.py) into WORK/scenes at SIZE;
+1. builds the five artist scenes (scenes/artist.py) into WORK/scenes at SIZE;
 2. runs `cli.py report` on them in one run: both shipped models (composed as the node renders them), EEVEE's own
    ray tracing + fast GI, and the Cycles + OIDN ladder at 1, 2, 4, 8 and 16 samples, against Cycles 128 spp + OIDN
    (resumable: a killed run goes on from its last finished scene);
@@ -158,7 +158,7 @@ def main(argv=None) -> int:
     scenes = work / "scenes"
     report = work / "report"
     if not a.doc_only and not all((scenes / f"{n}.blend").is_file() for n in SCENES):
-        run([py, "benchmarks/artist_scenes.py", "--out", str(scenes), "--size", a.size])
+        run([py, "-m", "scenes.artist", "--out", str(scenes), "--size", a.size])
     if not a.doc_only:
         run([py, "cli.py", "report", "--scenes", *[str(scenes / f"{n}.blend") for n in SCENES],
              "--models", "models/ssgi_default.pt", "models/ssgi_one_render.pt", "--out", str(report), "--size", a.size,

@@ -12,7 +12,7 @@ untimed run), all in the same run.
 
 ``--refs``: folders baked by ``cli.py bake --scenes`` (or a report's OUT/data) at the same size: each scene's
 reference is the sample whose manifest entry names it (the whole image ``ref``; a ref_diffuse model's image
-is composed with EEVEE's rest as the node shows it). ``S`` is benchmarks/artist_scenes.py's ``--out``. ``--crops DIR``:
+is composed with EEVEE's rest as the node shows it). ``S`` is scenes/artist.py's ``--out``. ``--crops DIR``:
 per scene with an emitter and model, DIR/SCENE_MODEL.png: the emitters' box and 40 px round it, full | 1/4 no fine |
 1/4 | reference above (images.srgb8), 4x |image - reference| below, magnified 2x. Ends with each model and
 configuration's mean over the scenes.

@@ -73,11 +73,11 @@ def run_py(code: str, *args: str, timeout: float = 600, cwd: Path | None = None,
 
 
 def save_shot(name: str, path, size: tuple[int, int], last_frame: int, timeout: float = 180) -> None:
-    """Build benchmarks/shot_scenes.py's shot ``name`` at ``size`` over frames 1..``last_frame``, at 1 EEVEE sample
+    """Build scenes/shots.py's shot ``name`` at ``size`` over frames 1..``last_frame``, at 1 EEVEE sample
     (tiny test renders), and save it to ``path``."""
     run_py(f'''
-sys.path.insert(0, {str(ROOT / "benchmarks")!r})
-import shot_scenes
+sys.path.insert(0, {str(ROOT)!r})
+from scenes import shots as shot_scenes
 sc = shot_scenes.build({name!r}, {tuple(size)!r}, {int(last_frame)})
 sc.eevee.taa_render_samples = 1
 shot_scenes.save(sc, {str(path)!r})
@@ -85,15 +85,15 @@ shot_scenes.save(sc, {str(path)!r})
 
 
 def cornell_script(samples: int, size: tuple[int, int] = (64, 36)) -> str:
-    """The head of a ``run_py`` script: ROOT, json, sys, numpy as np, bpy and benchmarks/artist_scenes imported, and
+    """The head of a ``run_py`` script: ROOT, json, sys, numpy as np, bpy and scenes.artist imported, and
     ``sc`` a factory-empty scene holding artist_scenes' emissive Cornell box (lit only by an emissive ceiling panel, a
     planar emitter) at ``size`` and ``samples`` EEVEE samples."""
     return f'''ROOT = __import__("pathlib").Path({str(ROOT)!r})
 import json, sys
 import numpy as np
 import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 sc = bpy.context.scene

@@ -1,6 +1,6 @@
 """A model that predicts the diffuse part keeps what EEVEE renders itself. Through the SSGI render
 path (set up by setup_scene, rendered by RenderSession) on a tiny scene with an emissive panel, a metal
-sphere, a glass cube and a glossy plane (benchmarks/artist_scenes.py tiny_material_scene), real EEVEE at
+sphere, a glass cube and a glossy plane (scenes/artist.py tiny_material_scene), real EEVEE at
 64x36: the diffuse-part model's image shows each of them as EEVEE's own render does, and a whole-image model
 (the first models) renders them black, the failure the diffuse-part target exists to avoid."""
 from __future__ import annotations
@@ -14,8 +14,8 @@ import json, sys
 import numpy as np
 import bpy, torch
 from bpy_extras.object_utils import world_to_camera_view
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from ssgi.model.learn import checkpoint, network
 from ssgi.ssgi_addon.blender import passes
 from ssgi.ssgi_addon.blender.compositor import setup_scene

@@ -1,4 +1,4 @@
-"""The artist test set (benchmarks/artist_scenes.py): every scene builds, saves and reopens with
+"""The artist test set (scenes/artist.py): every scene builds, saves and reopens with
 its render settings; the studio and the Cornell box hold what the set is for (metal, glass, film, an emissive
 panel and no lamp objects); two builds are the same; the Cornell box is lit by its panel alone (a tiny Cycles
 render); tiny_material_scene holds each material it promises."""
@@ -10,14 +10,14 @@ import pytest
 
 from ..conftest import ROOT, run_py
 
-BENCH = str(ROOT / "benchmarks")
+SCENES_ROOT = str(ROOT)
 NAMES = ("living_room", "studio", "exterior", "cornell_emissive", "closed_room")
 
 _DESCRIBE = """
 import json, sys
-sys.path.insert(0, BENCH)
+sys.path.insert(0, SCENES_ROOT)
 import bpy
-import artist_scenes as A
+from scenes import artist as A
 
 def mat(o):
     m = o.active_material
@@ -55,10 +55,10 @@ for name in A.NAMES:
     from ssgi.ssgi_addon.blender import blendfile
     reopened = describe(blendfile.open_blend(path))
     out[name] = dict(first=first, second=second, reopened=reopened)
-tiny = A.tiny_material_scene(A._bootstrap.empty_scene())
+tiny = A.tiny_material_scene(A.scenes.empty_scene())
 out["tiny"] = dict(names=tiny, scene=describe(bpy.context.scene))
 print("JSON" + json.dumps(out))
-""".replace("BENCH", repr(BENCH))
+""".replace("SCENES_ROOT", repr(SCENES_ROOT))
 
 
 @pytest.fixture(scope="module")
@@ -154,12 +154,12 @@ def test_the_cornell_box_is_lit_by_its_panel():
         import json, sys
         sys.path.insert(0, %r)
         import bpy
-        import artist_scenes as A
+        from scenes import artist as A
         scene = A.build("cornell_emissive", (64, 36))
         lit, _ = A.render_cycles(scene, 4)
         bpy.data.materials["panel_emission"].node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 0.0
         off, _ = A.render_cycles(scene, 4)
         print("JSON" + json.dumps([float(lit.mean()), float(off.mean())]))
-    """ % BENCH, timeout=300)
+    """ % SCENES_ROOT, timeout=300)
     lit, off = json.loads([ln for ln in p.stdout.splitlines() if ln.startswith("JSON")][-1][4:])
     assert lit > 0.05 and off < 1e-4, (lit, off)

@@ -18,6 +18,12 @@ def test_the_tool_scripts_live_in_benchmarks_and_docs_holds_no_python():
     assert not list((ROOT / "docs").rglob("*.py"))
 
 
+@pytest.mark.parametrize("module", ["scenes.artist", "scenes.shots"])
+def test_each_scene_module_runs_from_the_repo_root(module):
+    p = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert p.returncode == 0 and "--out" in p.stdout, clean(p.stderr)[-2000:]
+
+
 @pytest.mark.parametrize("name", [n for n in SCRIPTS if n != "fit_scenes.py"])
 def test_each_script_starts_and_parses_its_arguments(name):
     p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / name), "--help"], capture_output=True, text=True,
@@ -63,8 +69,8 @@ def test_equal_time_measures_every_frame_and_resumes_where_it_was_killed(tmp_pat
     env = dict(os.environ, PYTHONHASHSEED="0")
     blend = tmp_path / "ripple.blend"
     p = subprocess.run([sys.executable, "-c", f"""
-import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r})
-import shot_scenes
+import sys; sys.path.insert(0, {str(ROOT)!r})
+from scenes import shots as shot_scenes
 sc = shot_scenes.build("ripple", (48, 27), 6)
 sc.eevee.taa_render_samples = 1
 shot_scenes.save(sc, {str(blend)!r})

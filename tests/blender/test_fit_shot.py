@@ -1,6 +1,6 @@
 """Fit a shot on real Blender: the plan withholds whole frames, the bake keeps away from
 them, a tiny fit scores exactly those frames as the node renders them, and bad frame ranges are one-line
-errors. The shot is benchmarks/shot_scenes.py's "ripple" (a moving camera, a moving cube, a Wave and a Simple
+errors. The shot is scenes/shots.py's "ripple" (a moving camera, a moving cube, a Wave and a Simple
 Deform modifier) at 64x36 over 20 frames, EEVEE at 1 sample. The module's fit learns the rest (--learn-rest): its
 views hold EEVEE's rest and the model learns Cycles' image minus it (the still-scene fits of test_fit.py learn the
 diffuse part)."""

@@ -55,8 +55,8 @@ import json, sys
 import numpy as np
 import bpy
 from bpy_extras.object_utils import world_to_camera_view
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from ssgi.ssgi_addon.blender import passes
 from ssgi.ssgi_addon.blender.compositor import setup_scene
 from ssgi.ssgi_addon.pipeline.render import RenderSession

@@ -15,8 +15,8 @@ TINY_SKY_SCENE = r'''
 import json, sys
 import numpy as np
 import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from ssgi.ssgi_addon.blender import passes
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -114,8 +114,8 @@ def test_the_rest_render_culls_no_lamp_and_puts_the_artists_threshold_back():
     code = """
     import json, sys
     import bpy, numpy as np
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    import artist_scenes
+    sys.path.insert(0, str(ROOT))
+    from scenes import artist as artist_scenes
     from ssgi.ssgi_addon.blender import passes
     scene = artist_scenes.build("studio", size=(64, 36))
     scene.eevee.taa_render_samples = 1
@@ -236,8 +236,8 @@ EMIT_CODE = r'''
 import json, sys
 import numpy as np
 import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from ssgi.ssgi_addon.blender import direct_light, passes
 
 res = {}
@@ -345,8 +345,8 @@ NORMAL_CODE = r'''
 import json, sys
 import numpy as np
 import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from ssgi.ssgi_addon.blender import passes
 from ssgi.model.images import geometry_mask
 

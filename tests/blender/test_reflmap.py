@@ -1,7 +1,7 @@
 """A shot's reflection map on real Blender (model/infer/reflmap.py): a shot fit of a scene with a mirror bakes
 EEVEE's rest and Glossy Color into its views, fits the map beside the model and reports it; a diffuse shot is told
 apart and bakes no rest; and the node's render path adds weight x gloss x field to EEVEE's rest exactly on the glossy
-pixels. The shot is benchmarks/shot_scenes.py's "cornell_emissive" (the artist test set's Cornell box lit by an emissive panel,
+pixels. The shot is scenes/shots.py's "cornell_emissive" (the artist test set's Cornell box lit by an emissive panel,
 with a mirror ball; the camera pushes in) at 96x54 over 20 frames, EEVEE at 1 sample. The bpy-free half is
 tests/unit/test_reflmap.py."""
 from __future__ import annotations
@@ -26,8 +26,8 @@ def mirror_fit(tmp_path_factory, generic):
     glossy = d / "glossy.json"
     run_py(f'''
 import json
-sys.path.insert(0, {str(ROOT / "benchmarks")!r})
-import shot_scenes
+sys.path.insert(0, {str(ROOT)!r})
+from scenes import shots as shot_scenes
 from ssgi.ssgi_addon.pipeline.fit import has_glossy
 found = {{}}
 for name, path in (("ripple", {str(ripple)!r}), ("cornell_emissive", {str(blend)!r})):

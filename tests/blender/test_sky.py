@@ -12,8 +12,8 @@ SCENE = f"""
 import json, math, sys
 import numpy as np
 import bpy
-sys.path.insert(0, {str(ROOT / "benchmarks")!r})
-import artist_scenes
+sys.path.insert(0, {str(ROOT)!r})
+from scenes import artist as artist_scenes
 from ssgi.ssgi_addon.blender import passes, sky as sky_addon
 from ssgi.model import sky as sky_model
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -110,8 +110,8 @@ def test_the_shipped_one_render_model_renders_a_sky_lit_scene_from_its_one_rende
     run_py(f"""
 import sys
 import bpy
-sys.path.insert(0, {str(ROOT / "benchmarks")!r})
-import artist_scenes
+sys.path.insert(0, {str(ROOT)!r})
+from scenes import artist as artist_scenes
 bpy.ops.wm.read_factory_settings(use_empty=True)
 sc = bpy.context.scene
 artist_scenes.build_exterior(sc)

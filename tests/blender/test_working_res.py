@@ -1,6 +1,6 @@
 """The render path predicts at the working resolution the node asks for, and a sky edge keeps its
 brightness (no dark rim) at full and at a reduced working resolution. Real EEVEE at 64x36, 4 samples: the
-exterior artist scene (benchmarks/artist_scenes.py: buildings against a sky), through setup_scene and
+exterior artist scene (scenes/artist.py: buildings against a sky), through setup_scene and
 RenderSession, against EEVEE's own render of the same scene (ray tracing + fast GI, its settings)."""
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ CODE = r'''
 import json, sys
 import numpy as np
 import bpy
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from scipy.ndimage import binary_dilation
 from ssgi.model.errors import UserError
 from ssgi.model.infer import compose, workres
@@ -69,8 +69,8 @@ def test_the_node_predicts_at_its_working_resolution_and_a_sky_edge_gets_no_dark
 EMITTER = r'''
 import json, sys
 import numpy as np
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import artist_scenes
+sys.path.insert(0, str(ROOT))
+from scenes import artist as artist_scenes
 from ssgi.model import normalize
 from ssgi.model.infer import fine, workres
 from ssgi.ssgi_addon.blender.compositor import setup_scene

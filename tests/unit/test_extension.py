@@ -62,9 +62,9 @@ def test_build_zip_contents(built_zip):
 
 def test_built_zip_holds_no_benchmarks_docs_tests_or_dev_scripts(built_zip):
     """blender_manifest.toml's [build] leaves the side code out of the extension: measurements and tool scripts
-    (benchmarks/), documentation (docs/), tests and their fixtures (tests/), dev scripts (scripts/)."""
+    (benchmarks/), documentation (docs/), tests and their fixtures (tests/), dev scripts (scripts/), the scenes built by script (scenes/)."""
     names = zipfile.ZipFile(built_zip).namelist()
-    for side in ("benchmarks/", "docs/", "tests/", "scripts/"):
+    for side in ("benchmarks/", "docs/", "tests/", "scripts/", "scenes/"):
         assert (ROOT / side).is_dir(), side  # the checkout has them: the test means something
         assert not [n for n in names if n.startswith(side)], side
     assert not [n for n in names if n.endswith(".blend")], names

@@ -2,9 +2,9 @@
 by script (deterministic: no randomness) and saved as .blend files for ``cli.py report --scenes`` / ``cli.py bake
 --scenes`` (each file: one camera at frame 1, EEVEE with ray tracing + fast GI at 16 samples, view "Standard").
 
-    .venv/bin/python benchmarks/artist_scenes.py --out DIR [--size 320x180] [--names living_room studio ...]
-    .venv/bin/python benchmarks/artist_scenes.py --look docs/artist_scenes [--size 320x180]   # EEVEE | Cycles PNGs
-    .venv/bin/python benchmarks/artist_scenes.py --agreement [--spp 128]   # two Cycles seeds: PSNR, seconds
+    .venv/bin/python -m scenes.artist --out DIR [--size 320x180] [--names living_room studio ...]
+    .venv/bin/python -m scenes.artist --look docs/artist_scenes [--size 320x180]   # EEVEE | Cycles PNGs
+    .venv/bin/python -m scenes.artist --agreement [--spp 128]   # two Cycles seeds: PSNR, seconds
 
 Scenes (``NAMES``): living_room, studio, exterior, cornell_emissive, closed_room; docs/artist_scenes.md says
 what each holds and what they look like. API: ``build_<name>(scene)`` fills an emptied scene; ``build(name,
@@ -12,8 +12,7 @@ size)`` resets Blender to an empty file, builds, returns the scene; ``save(scene
 ``tiny_material_scene(scene)`` builds the tiny emissive/metal/glass/glossy scene and returns its object names.
 
 Over 400 lines on purpose: the scenes, the few building blocks only they use, and the two measurements of
-them (--look, --agreement) are one test set, and every script in benchmarks/ must run on its own
-(tests/blender/test_benchmarks.py runs each with --help), so a helper module there would be a script too.
+them (--look, --agreement) are one test set.
 """
 from __future__ import annotations
 
@@ -24,8 +23,9 @@ import sys
 import time
 from pathlib import Path
 
-import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 import bpy  # noqa: E402
+
+import scenes  # noqa: E402  (the checkout as package ssgi)
 import bmesh  # noqa: E402  (after bpy: bpy makes it importable)
 from mathutils import Vector  # noqa: E402
 
@@ -382,7 +382,7 @@ def build(name: str, size=DEFAULT_SIZE):
     """Blender reset to an empty file, scene ``name`` built into it at ``size``; the scene."""
     if name not in BUILDERS:
         raise ValueError(f"{name!r}: no such artist scene; scenes: {', '.join(NAMES)}")
-    scene = _bootstrap.empty_scene()
+    scene = scenes.empty_scene()
     scene.name = name
     BUILDERS[name](scene)
     render_settings(scene, size)

@@ -1,8 +1,8 @@
 """Scenes that move, built by script (deterministic) and saved as .blend files for
 ``cli.py fit --frames``, ``cli.py render`` and the temporal benchmark.
 
-    .venv/bin/python benchmarks/shot_scenes.py --out DIR [--size 240x135] [--frames 48] [--names ripple room living_room]
-    .venv/bin/python benchmarks/shot_scenes.py --look out/shot_scenes [--size 160x90]   # EEVEE strips of 3 frames
+    .venv/bin/python -m scenes.shots --out DIR [--size 240x135] [--frames 48] [--names ripple room living_room]
+    .venv/bin/python -m scenes.shots --look out/shot_scenes [--size 160x90]   # EEVEE strips of 3 frames
 
 Scenes (``NAMES``), each animated over frames 1..N (N = ``--frames``, 48 by default):
 
@@ -12,14 +12,14 @@ Scenes (``NAMES``), each animated over frames 1..N (N = ``--frames``, 48 by defa
   cast (red sphere of radius 1 with a Wave modifier, green subdivided cylinder bent 0 -> 80 degrees by a
   Simple Deform, blue 1.2 m cube moving and turning, a grey floor, a sun, a blue-grey sky, a camera drifting
   sideways and up) and its layout; our own: the materials (diffuse-ish Principled), the light strength, the
-  frame count as a parameter, EEVEE/Cycles settings of artist_scenes.py.
+  frame count as a parameter, EEVEE/Cycles settings of scenes/artist.py.
 - ``room``: SSGI's own shot. A closed 4 x 3 x 2.5 m room with a warm-white and a red wall, lit by one area
   lamp under the ceiling and a small point lamp (so most of the walls' light is bounce light); a camera that
   dollies in and pans; a yellow ball that rolls across the floor (a moving object); a cloth-like plane over
   a box that waves (Wave modifier) and a column that twists (Simple Deform, deforming meshes).
-- ``living_room``: benchmarks/artist_scenes.py's living room, the camera moving along the room (a slow
+- ``living_room``: scenes/artist.py's living room, the camera moving along the room (a slow
   truck right and push in, looking at the armchair and the lamp) over the frame range.
-- ``cornell_emissive``, ``studio``: benchmarks/artist_scenes.py's scenes of the same names,
+- ``cornell_emissive``, ``studio``: scenes/artist.py's scenes of the same names,
   the camera moving (the Cornell box: a push in and to the right, tilting down to the ball; the studio: an
   orbit to the left, rising) over the frame range; nothing else moves, as in ``living_room``.
 
@@ -34,9 +34,10 @@ import math
 import sys
 from pathlib import Path
 
-import _bootstrap  # noqa: E402  (the checkout as package ssgi)
-import artist_scenes as art  # noqa: E402  (benchmarks/ is on sys.path: the scripts' folder)
+from scenes import artist as art  # noqa: E402
 import bpy  # noqa: E402
+
+import scenes  # noqa: E402  (the checkout as package ssgi)
 import bmesh  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
@@ -179,7 +180,7 @@ def build(name: str, size=DEFAULT_SIZE, frames: int = DEFAULT_FRAMES):
         raise ValueError(f"{name!r}: no such shot; shots: {', '.join(NAMES)}")
     if int(frames) < 2:
         raise ValueError(f"frames {frames}: a shot needs at least 2 frames")
-    scene = _bootstrap.empty_scene()
+    scene = scenes.empty_scene()
     scene.name = name
     BUILDERS[name](scene, int(frames))
     art.render_settings(scene, size)  # (sets frames 1..1: the shot's range follows)
