@@ -3,7 +3,7 @@
 Why: beside an emitter tens of times brighter than its surround, the network run at 1/4 of 960x540 predicts far
 more light than the surround gets in the blocks next to the emitter (the Cornell box's ceiling round its panel:
 mean error +0.21 within 4 px of it and +0.16 at 5-8 px, where the reference is 0.17 and 0.12; at full resolution
-+0.04 and +0.03: benchmarks/working_res_scenes.py, docs/working_res.md), and no upsample can take that back (nor
++0.04 and +0.03; docs/working_res.md), and no upsample can take that back (nor
 does 1/2: the whole frame at 1/2 without this pass scored 26.02 dB against full resolution's 26.39).
 
 So near emitters the image takes the network's prediction at full resolution, run on crops of the full-resolution

@@ -19,7 +19,7 @@ corrects every pixel whose gloss exceeds ``GLOSS_MIN`` in some channel and where
 a silhouette pixel's Glossy Color is already weighted by how much of it the mirror covers, and left to
 EEVEE the Cornell ball's 1-2 px silhouette stayed dark (EEVEE reflects the black world at grazing angles); on the
 Cornell one-render fit's 7 validation views the 1,435 edge pixels scored 19.27 dB uncorrected and 26.04 dB
-corrected, and the ceiling rose from 37.13 to 39.24 dB (benchmarks/reflmap_edges.py --val, docs/one_render.md). For those pixels
+corrected, and the ceiling rose from 37.13 to 39.24 dB. For those pixels
 only: the world position and normal (lightmap.world_points), the view ray from the camera (``M``'s translation; orthographic cameras along ``M``'s -Z), the reflected direction, and
 ``rest + lam x gloss x field``. ``lam`` is chosen by the fit on its validation views; 0 means unused.
 
