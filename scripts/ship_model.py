@@ -1,9 +1,11 @@
-"""Copy a trained checkpoint to models/ssgi_default.pt and write its metadata (models/ssgi_default.json).
+"""Copy a trained checkpoint to models/NAME.pt and write its metadata (models/NAME.json) and its ONNX export.
 
-    .venv/bin/python scripts/ship_model.py CHECKPOINT --bake-command "..." [--extra-json FILE]
+    .venv/bin/python scripts/ship_model.py CHECKPOINT --recipe RECIPE.json --bake-commit REV [--out models/NAME.pt]
 
 The JSON holds the channel spec, normalisation, architecture, metrics history and best epoch, the dataset's
-identity and split, and the exact commands that baked the data and trained the weights.
+identity and split, and the recipe: the cli.py commands that bake the data and train the weights, which
+scripts/remake_model.py runs. RECIPE.json is a recipe object or a model JSON that holds one (e.g. the
+models/NAME.json of the model that a remake replaces).
 """
 import argparse
 import json
@@ -16,12 +18,14 @@ import torch
 ROOT = Path(__file__).resolve().parent.parent
 ap = argparse.ArgumentParser()
 ap.add_argument("checkpoint")
-ap.add_argument("--bake-command", required=True)
-ap.add_argument("--bake-commit", required=True)
+ap.add_argument("--recipe", required=True, help="a recipe JSON, or a model JSON holding one under 'recipe'")
+ap.add_argument("--bake-commit", required=True, help="the commit whose baker made the training data")
 ap.add_argument("--out", default=str(ROOT / "models" / "ssgi_default.pt"))
-ap.add_argument("--train-command", default=None,
-                help="the whole training command line(s), when the checkpoint's own (the last run's) is not all")
 a = ap.parse_args()
+recipe = json.loads(Path(a.recipe).read_text())
+recipe = recipe.get("recipe", recipe)
+if not (isinstance(recipe.get("bake"), list) and isinstance(recipe.get("train"), list)):
+    sys.exit(f"{a.recipe}: not a recipe (an object with 'bake' and 'train' command lists)")
 ck = torch.load(a.checkpoint, map_location="cpu", weights_only=True)
 for key in ("arch", "inputs", "channel_spec", "normalization", "history", "best", "dataset", "command"):
     if key not in ck:
@@ -41,9 +45,8 @@ meta = {
     "history": ck["history"],
     "dataset": {k: v for k, v in ck["dataset"].items() if k != "split"},
     "split": ck["dataset"].get("split"),
-    "bake_command": a.bake_command,
+    "recipe": recipe,
     "bake_commit": a.bake_commit,
-    "train_command": a.train_command or ck["command"],
     "last_run_command": ck["command"],
     "versions": ck.get("versions"),
     "created": ck.get("created"),

@@ -177,9 +177,11 @@ def prepare_folder(folder, settings: dict, blender_version: str, shard=None, gro
         if not parent.is_dir():
             raise UserError(f"--out {folder}: parent folder {parent} does not exist")
         try:
-            folder.mkdir()
+            folder.mkdir(exist_ok=True)  # shards started side by side each create it: the first one wins
         except OSError as e:
             raise UserError(f"--out {folder}: cannot create the folder in {parent} ({e.strerror})") from None
+        if not folder.is_dir():
+            raise UserError(f"--out {folder}: exists and is not a folder")
     _check_writable(folder)
     name = shard_manifest_name(shard)
     mpath = folder / name

@@ -463,7 +463,7 @@ def test_a_shot_fit_without_init_probes_the_shipped_fit_start_and_nothing_else_d
     DEFAULT_MODEL = FIT_START_MODEL.with_name("ssgi_default.pt")  # (the node's DEFAULT_MODEL; node imports bpy)
     assert FIT_START_MODEL.is_file() and checkpoint.load(FIT_START_MODEL)["arch"]["variant"]  # shipped, loadable
     meta = json.loads(FIT_START_MODEL.with_suffix(".json").read_text())
-    assert meta["model"] == FIT_START_MODEL.name and meta["train_command"]  # reproducible: its commands beside it
+    assert meta["model"] == FIT_START_MODEL.name and meta["recipe"]["train"]  # reproducible: its commands beside it
     cfg = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path))
     assert starts_to_probe(cfg, str(DEFAULT_MODEL), shot=True) == [str(FIT_START_MODEL)]
     assert starts_to_probe(cfg, str(DEFAULT_MODEL), shot=False) == []  # a still scene: the ladder, as before
