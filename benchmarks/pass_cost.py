@@ -154,9 +154,9 @@ def run_scene(name, size, variants, model, refs, repeats: int = 1, plain: bool =
     # with repeats > 1 EEVEE GI and each variant's frame alternate, and the medians are kept: on a shared machine
     # one render can take twice another's time (docs/one_render.md)
     gi_times, plain_times, gi_cpu, plain_cpu, frames = [], [], [], [], {v: [] for v in variants}
-    # where nothing casts a shadow SSGI's renders skip EEVEE's shadows (passes.SKIP_UNUSED_SHADOWS): the plain EEVEE GI
+    # where nothing casts a shadow SSGI's renders skip EEVEE's shadows (passes._render): the plain EEVEE GI
     # render is then also timed so, for a comparison at equal savings
-    noshadow = plain and passes.SKIP_UNUSED_SHADOWS and passes.casts_no_shadow(scene)
+    noshadow = plain and passes.casts_no_shadow(scene)
     ns_times, ns_cpu = [], []
     for _ in range(max(1, repeats)):
         img, t, c = eevee_gi(scene)

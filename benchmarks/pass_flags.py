@@ -55,10 +55,10 @@ NO_GI = "combined_no_gi"  # Combined only, ray tracing and fast GI off: what EEV
 # configuration above also runs with both off as NAME_no_gi (``combined_no_gi`` is NO_GI), and so do the pass sets a
 # GI-off one-render frame could read: colour + diffuse light + the upsampler's normal and depth (ssgi4), colour +
 # diffuse light (ssgi2), colour + normal + depth (ssgi3: a model that reads the Combined pass instead of the light).
-# ssgi_cz: colour + depth, the normals derived from the depth (passes.NORMALS_FROM_DEPTH)
+# ssgi_cz: colour + depth, the normals derived from the depth (passes.render_gbuffer's normals="depth")
 GI_OFF_SETS: dict[str, tuple[str, ...]] = {"ssgi4": PASSES[:4], "ssgi2": PASSES[:2],
                                            "ssgi3": (PASSES[0], PASSES[2], PASSES[3]), "ssgi_cz": (PASSES[0], PASSES[3])}
-# the GI-off one render of a shot fit (passes.ONE_RENDER_MODES["eevee_local"]): the five passes + Glossy Color (the
+# the GI-off one render of a shot fit (passes.ONE_RENDER_SETTINGS): the five passes + Glossy Color (the
 # reflection map's), with the emitter proxies shadowed, unshadowed (the default) or absent:
 # {name: (passes, proxies: None = none, else their shadows)}
 ONE_PASSES = PASSES + ("use_pass_glossy_color",)

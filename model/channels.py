@@ -106,19 +106,13 @@ GROUPS: dict[str, Group] = {g.name: g for g in (
           "reflection map (model/infer/reflmap.py) corrects EEVEE's reflections by gloss x its field; the input of "
           "head residual_combined_gloss (metal takes the light a GI-off render lacks).",
           render_pass="Glossy Color", preview="color"),
-    Group("eevee_diffuse", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
-          "EEVEE's own diffuse light at the artist's settings with ray tracing and fast GI on: the Diffuse Direct "
-          "pass of the render that gives rest (EEVEE 5.0 puts all its diffuse light there: the lamps at their real "
-          "size with soft shadows, the world, the traced and fast-GI indirect light). The input of one-render models"
-          ": every group they read comes from that one render (docs/one_render.md).",
-          render_pass="Diffuse Direct", drop_rank=None),
     Group("eevee_local", ("R", "G", "B"), "light", "eevee", "use_pass_diffuse_direct", "linear radiance (HDR)",
           "EEVEE's own diffuse light with ray tracing and fast GI OFF, at the artist's samples, with an area light "
           "standing in for each planar emitter (the render path's emitter proxies; casting no shadow unless "
           "the model's bake recorded otherwise): the lamps at their real size "
-          "with soft shadows and the world's light from the probes, no indirect light. The input of GI-off "
-          "one-render models (a frame that is one EEVEE render without EEVEE's GI, docs/one_render.md); "
-          "every group they read comes from that render, and so does the rest.",
+          "with soft shadows and the world's light from the probes, no indirect light. Stored by one-render bakes "
+          "beside eevee_combined (the same render, docs/one_render.md) and composed with it into their rest; not a "
+          "network input.",
           render_pass="Diffuse Direct", drop_rank=None),
     Group("eevee_combined", ("R", "G", "B"), "light", "eevee", None, "linear radiance (HDR)",
           "EEVEE's Combined image of the same GI-off one render as eevee_local (ray tracing and fast GI off, the "
@@ -154,10 +148,6 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
               "over the geometry pixels, and the geometry fraction. Gives a small network the room's overall light "
               "level, which sets the indirect light everywhere (a per-image linear fit beat the global one by "
               "2.4 dB, docs/model.md). Computed on the full image, so crops and tiles see the same values."),
-    "scene_gi": (("albedo", "eevee_diffuse", "normal"), 7,
-                 "As 'scene', from EEVEE's own diffuse light instead of the hard direct light: mean "
-                 "log1p(albedo*eevee_diffuse) RGB and mean albedo RGB over the geometry pixels, and the geometry "
-                 "fraction (one-render models)."),
     "scene_comb": (("albedo", "eevee_combined", "normal"), 7,
                    "As 'scene', from EEVEE's GI-off Combined image of a combined one-render model: mean "
                    "log1p(eevee_combined) RGB and mean albedo RGB over the geometry pixels, and the geometry "
@@ -169,22 +159,22 @@ DERIVED: dict[str, tuple[tuple[str, ...], int, str]] = {
              "emitters on screen give off, wherever they are in the image."),
 }
 
-DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1, "scene_gi": 1, "scene_comb": 1}
+DERIVED_DROP_RANK: dict[str, int] = {"scene": 1, "lit": 5, "glow": 1, "scene_comb": 1}
 # derived groups that are whole-image statistics (normalised already), not light
-STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_gi", "scene_comb")
+STAT_GROUPS: tuple[str, ...] = ("scene", "glow", "scene_comb")
 
 # Groups every sample holds. "eevee" and "ref" are not network inputs.
 SAMPLE_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                  "emit_direct", "surround", "sky", "rest", "gloss", "eevee_diffuse", "eevee_local",
+                                  "emit_direct", "surround", "sky", "rest", "gloss", "eevee_local",
                                   "eevee_combined", "eevee", "ref_diffuse", "ref")
 # Groups added after the first datasets were baked: a sample without them is still whole (an older bake); the
 # dataset's manifest (its channel_spec) says which groups its samples hold.
 OPTIONAL_GROUPS: tuple[str, ...] = ("world", "emission", "direct_soft", "emit_direct", "surround", "sky", "rest",
-                                    "gloss", "eevee_diffuse", "eevee_local", "eevee_combined", "ref_diffuse")
+                                    "gloss", "eevee_local", "eevee_combined", "ref_diffuse")
 INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "world", "emission", "direct_soft",
-                                 "emit_direct", "surround", "sky", "eevee_diffuse", "eevee_local", "eevee_combined",
+                                 "emit_direct", "surround", "sky", "eevee_combined",
                                  "gloss", "lit",
-                                 "scene", "glow", "scene_gi", "scene_comb")
+                                 "scene", "glow", "scene_comb")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (the first models), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
 # A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what
@@ -299,14 +289,51 @@ def required_groups(spec: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(out)
 
 
-# the groups of which a one-render model reads one: its every group, and its rest or Combined image, come from one
-# EEVEE render (docs/one_render.md; the Blender half's passes.ONE_RENDER_MODES has their render settings)
-ONE_RENDER_GROUPS: tuple[str, ...] = ("eevee_diffuse", "eevee_local", "eevee_combined")
+# the group a one-render model reads: its every group, and its Combined image, come from one EEVEE render
+# (docs/one_render.md; the Blender half's passes.ONE_RENDER_SETTINGS has its render settings)
+ONE_RENDER_GROUPS: tuple[str, ...] = ("eevee_combined",)
+# one-render kinds SSGI does not make: {a group only such a model read: the kind's name}
+GONE_ONE_RENDER_KINDS: dict[str, str] = {"eevee_diffuse": "gi", "scene_gi": "gi", "eevee_local": "local"}
+REBAKE = "re-bake with `cli.py bake --gi-samples N --one-render`"
+REFIT = "fit a new one with `cli.py fit --one-render`, or train one on a `cli.py bake --one-render` dataset"
 
 
 def one_render(spec: tuple[str, ...]) -> bool:
     """Whether a model of input ``spec`` is a one-render model (``ONE_RENDER_GROUPS``)."""
     return any(g in ONE_RENDER_GROUPS for g in required_groups(spec))
+
+
+def gone_kind_of_model(spec) -> str | None:
+    """The one-render kind SSGI does not make (``GONE_ONE_RENDER_KINDS``) that a model of input ``spec`` is of;
+    None for another model."""
+    groups = tuple(spec) + required_groups(tuple(spec))
+    return next((GONE_ONE_RENDER_KINDS[g] for g in groups if g in GONE_ONE_RENDER_KINDS), None)
+
+
+def gone_kind_of_bake(settings: dict) -> str | None:
+    """The one-render kind SSGI does not bake that a dataset manifest's ``settings`` record (``eevee.one_render``:
+    its ``kind``, or for a bake that recorded none, "gi" with ray tracing on, else "local"); None for another
+    bake."""
+    one = ((settings or {}).get("eevee") or {}).get("one_render") or {}
+    if not one:
+        return None
+    kind = one.get("kind") or ("gi" if one.get("raytracing") else "local")
+    return kind if kind in GONE_ONE_RENDER_KINDS.values() else None
+
+
+def refuse_gone_model(spec, where) -> None:
+    """UserError when a model of input ``spec`` (from ``where``) is of a one-render kind SSGI does not make."""
+    kind = gone_kind_of_model(spec)
+    if kind is not None:
+        raise UserError(f"{where}: was made with the {kind!r} one-render kind, which SSGI no longer has; {REFIT}")
+
+
+def refuse_gone_bake(settings: dict, where) -> None:
+    """UserError when a dataset manifest's ``settings`` (of ``where``) record a one-render kind SSGI does not
+    bake."""
+    kind = gone_kind_of_bake(settings)
+    if kind is not None:
+        raise UserError(f"{where}: was baked with the {kind!r} one-render kind, which SSGI no longer has; {REBAKE}")
 
 
 def required_passes(spec: tuple[str, ...]) -> tuple[str, ...]:

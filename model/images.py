@@ -13,7 +13,7 @@
   ``cli.py predict --png``, the dataset preview, the demo and the report's figures.
 - ``write_png(path, img8)``: an 8-bit RGB(A) array as a PNG, written atomically.
 - ``normals_from_depth(depth, P)``: camera-space unit normals of the surfaces a depth image shows (the render
-  path's one render writes no Normal pass: ssgi_addon/blender/passes.NORMALS_FROM_DEPTH).
+  path's one render writes no Normal pass: ssgi_addon/blender/passes.render_gbuffer).
 - ``camera_points(z, nx, ny, P)``: the camera-space points that depths at normalised device coordinates show (the
   one unprojection: normals_from_depth and model/infer/lightmap.world_points).
 """

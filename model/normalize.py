@@ -119,12 +119,10 @@ def derived(name: str, groups: dict[str, np.ndarray]) -> np.ndarray:
     """A derived group from its (repaired) stored groups."""
     if name == "lit":
         return np.minimum(groups["albedo"] * groups["direct"], LIGHT_MAX).astype(np.float32)
-    if name in ("scene", "scene_gi", "scene_comb"):
+    if name in ("scene", "scene_comb"):
         alb = groups["albedo"]
         if name == "scene":
             lit = derived("lit", groups)
-        elif name == "scene_gi":
-            lit = np.minimum(alb * groups["eevee_diffuse"], LIGHT_MAX).astype(np.float32)
         else:  # scene_comb: the GI-off Combined image is light on the albedo already
             lit = np.minimum(groups["eevee_combined"][..., :3], LIGHT_MAX).astype(np.float32)
         # its own geometry rule, not images.geometry_mask: the shipped model was trained on it (images.py)

@@ -24,8 +24,6 @@ class SSGI_PT_fit(JobPanel, bpy.types.Panel):
         col.prop(s, "fit_target_psnr")
         col.prop(s, "fit_learn_rest")
         col.prop(s, "fit_one_render")
-        if s.fit_one_render:
-            col.prop(s, "fit_one_render_kind")
         col.prop(s, "fit_shot")
         if s.fit_shot:
             row = col.row()

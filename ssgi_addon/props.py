@@ -10,7 +10,7 @@ from ..model.learn import variants as _variants
 from ..model.learn.config import DEFAULT_MINUTES as _TRAIN_MINUTES, TrainConfig as _Train
 from .blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
 from .pipeline.bake import BakeConfig as _Bake
-from .pipeline.fit import ONE_RENDER_DEFAULT as _ONE_RENDER_DEFAULT, FitSceneConfig as _Fit
+from .pipeline.fit import FitSceneConfig as _Fit
 from .pipeline.randomize import RandomizeConfig as _Randomize
 from .pipeline.report import ReportConfig as _Report
 
@@ -87,13 +87,6 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                                        "and fast GI off: the fitted network gives the GI, a frame costs "
                                                        "about what EEVEE's own GI costs at the same samples (cli.py fit "
                                                        "--one-render)")
-    fit_one_render_kind: bpy.props.EnumProperty(
-        name="Reads", default=_ONE_RENDER_DEFAULT,
-        items=[("combined", "Combined Image", "The one render's Combined image: the frames render one pass fewer (no "
-                                              "Diffuse Direct; cli.py fit --one-render combined, the default)"),
-               ("local", "Diffuse Direct", "The one render's Diffuse Direct pass, composed with its rest (a glossy shot "
-                                           "also gets a reflection map; cli.py fit --one-render local)")],
-        description="What a One Render model reads of its render")
     fit_reflmap: bpy.props.BoolProperty(name="Shot Reflection Map", default=True,
                                         description="With Fit the Shot: when the scene has mirrors or metal, also fit a "
                                                     "world-space correction of EEVEE's reflections beside the model "

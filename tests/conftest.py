@@ -106,8 +106,8 @@ sc.eevee.taa_render_samples = {int(samples)}
 ONE_RENDER_SHOT = (1, 20)  # the tiny one-render shot fits' frames
 
 
-def one_render_shot_fit(tmp_path, *kind: str) -> tuple[Path, Path, dict, dict]:
-    """A tiny GI-off one-render shot fit (``cli.py fit --one-render [KIND]``) of shot_scenes' emissive Cornell box,
+def one_render_shot_fit(tmp_path) -> tuple[Path, Path, dict, dict]:
+    """A tiny one-render shot fit (``cli.py fit --one-render``) of shot_scenes' emissive Cornell box,
     frames ONE_RENDER_SHOT at 96x54, half a minute: (its .blend, the model, the fit's JSON summary, the checkpoint)."""
     import torch
     first, last = ONE_RENDER_SHOT
@@ -115,7 +115,7 @@ def one_render_shot_fit(tmp_path, *kind: str) -> tuple[Path, Path, dict, dict]:
     save_shot("cornell_emissive", blend, (96, 54), last)
     model = tmp_path / "shot.pt"
     p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{first}-{last}", "--views", "6",
-                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render", *kind,
+                "--minutes", "0.5", "--size", "96x54", "--ref-samples", "2", "--one-render",
                 "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--json", timeout=1500)
     return blend, model, json.loads(p.stdout), torch.load(model, map_location="cpu", weights_only=False)
 

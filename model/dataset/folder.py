@@ -104,6 +104,7 @@ def read_manifest(path) -> dict:
                         "update SSGI")
     if v < ch.FORMAT_VERSION:
         raise UserError(f"{path}: manifest format_version {v} is older than {ch.FORMAT_VERSION}; re-bake the dataset")
+    ch.refuse_gone_bake(m.get("settings"), path.parent)
     return m
 
 

@@ -53,9 +53,7 @@ FORMAT = 1
 KEYS = ("lo", "hi", "nfreq", "lam", "format")
 # the frame's own direct light a field may learn beside (at most one of the first two: both hold the lamps' direct
 # light, the soft one with the lamps' real size); the fit keeps those the model's own inputs already include
-# (eevee_local, a GI-off one-render model's input, holds the lamps' direct light too, the emitter proxies' and the
-# world's unoccluded light besides)
-KNOWN_CANDIDATES = (("direct_soft", "direct", "eevee_local"), ("emit_direct",))
+KNOWN_CANDIDATES = (("direct_soft", "direct"), ("emit_direct",))
 
 
 def known_for(groups) -> tuple[str, ...]:

@@ -56,11 +56,7 @@ def _act():
 
 # the input groups each head reads itself (fit never drops them)
 HEAD_NEEDS = {"log": (), "demod": ("albedo",), "residual": ("albedo", "direct"),
-              # one-render models: the shading starts from EEVEE's own diffuse light, not the hard direct
-              "residual_gi": ("albedo", "eevee_diffuse"),
-              # GI-off one-render models: from EEVEE's diffuse light without its GI (lamps, emitter proxies, world)
-              "residual_local": ("albedo", "eevee_local"),
-              # ... and from that render's Combined image alone (no Diffuse Direct pass: target ref_combined)
+              # one-render models: from EEVEE's GI-off Combined image (no Diffuse Direct pass: target ref_combined)
               "residual_combined": ("albedo", "eevee_combined"),
               # ... with the Glossy Color pass beside the albedo: metal takes light too
               "residual_combined_gloss": ("albedo", "eevee_combined", "gloss")}

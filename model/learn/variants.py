@@ -14,8 +14,6 @@ VARIANTS: dict[str, dict] = {
     "lean": dict(backbone="fssgi", width=24, pre=3, post=2, head="residual"),
     # encoder-decoders, small to large
     "unet_s": dict(backbone="unet", widths=[12, 24, 32], convs=[1, 2, 2], head="residual"),
-    # one-render models (docs/one_render.md): unet_s whose shading starts from EEVEE's own diffuse light
-    "unet_s_gi": dict(backbone="unet", widths=[12, 24, 32], convs=[1, 2, 2], head="residual_gi"),
     "unet": dict(backbone="unet", widths=[16, 32, 48, 64], convs=[1, 2, 2, 2], head="residual"),
     "unet_l": dict(backbone="unet", widths=[24, 48, 64, 96], convs=[2, 2, 2, 3], head="residual"),
     # one level deeper: receptive field 125 px (more of the room) for little extra cost

@@ -220,7 +220,7 @@ def _tree_may_emit(tree, seen: set) -> bool:
 def materials_may_emit() -> bool:
     """False only when no material of the file that anything uses can write EEVEE's Emission pass
     (``_tree_may_emit``): then that pass is black to the bit in any render (lights and the world write other
-    passes), so the render path need not write it (``passes.SKIP_EMPTY_EMISSION``). Every used material of the file
+    passes), so the render path need not write it (``passes.render_rest``). Every used material of the file
     is looked at, not only the scene's objects', so that materials that reach the render by collection instances,
     geometry nodes or linked libraries count too."""
     seen: set = set()
@@ -330,7 +330,7 @@ def _hits_other(scene, dg, o, origin, ray, distance: float) -> bool:
 @contextlib.contextmanager
 def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     """Stand an area light in for each planar emitter (``planar_emitters``) while the block runs, and remove them
-    after; with ``shadows`` False the proxies cast no shadow (the GI-off one render's, passes.ONE_RENDER_MODES:
+    after; with ``shadows`` False the proxies cast no shadow (the one render's, passes.ONE_RENDER_SETTINGS:
     their shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 on Mesa, docs/one_render.md). EEVEE lights nothing from an emissive mesh off screen (its ray tracing sees only the screen), so in
     its own render the walls an emissive panel lights stay dark and a mirror reflects them dark, where Cycles
     shows them lit: the rest (EEVEE's reflections, transmission) then misses that light. Each proxy is a

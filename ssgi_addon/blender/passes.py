@@ -10,8 +10,8 @@ Contract (used by the baker and the compositor node):
   afterwards, and returns the groups top row first with normals in CAMERA space. Asked for ``rest`` at the
   same samples (the render path), it reads albedo, normal, depth and emission from that artist-settings render
   (``SHARED_GROUPS``: bit-identical, docs/one_render.md); ``last_timings`` has each render's seconds. That
-  render writes no Emission pass where no used material can emit (``SKIP_EMPTY_EMISSION``: zeros, exact), and a
-  one-render model's frame writes no Normal pass: its normals come from the Z pass (``NORMALS_FROM_DEPTH``).
+  render writes no Emission pass where no used material can emit (zeros, exact), and a
+  one-render model's frame writes no Normal pass: its normals come from the Z pass (``last_render``).
 - ``render_cycles(scene, samples, seed, ...)``: Cycles with the lights at their real radius (the reference),
   or with hard lights and point-sampled pixels (to check EEVEE's 1-sample Diffuse Direct pass against Cycles').
 
@@ -37,32 +37,20 @@ from ...model.errors import UserError
 
 # group -> Blender render pass name (the channel spec's Group.render_pass)
 PASS_NAMES: dict[str, str] = {g.name: g.render_pass for g in ch.GROUPS.values() if g.render_pass}
-# groups the artist-settings render gives besides rest: its Diffuse Direct pass, EEVEE's own diffuse light (the
-# input of one-render models; docs/one_render.md)
-# eevee_combined: that render's Combined image (RGB), the input of GI-off one-render models without its Diffuse Direct
-# pass (target ref_combined)
-DIFFUSE_LIGHT_GROUPS = ("eevee_diffuse", "eevee_local")  # (its Diffuse Direct pass: what a rest needs too)
+# groups the artist-settings render gives besides rest, those of a one-render model's one render (docs/one_render.md):
+# eevee_local, its Diffuse Direct pass (what a rest needs too), and eevee_combined, its Combined image (RGB), the
+# input of one-render models (target ref_combined)
+DIFFUSE_LIGHT_GROUPS = ("eevee_local",)
 REST_LIGHT_GROUPS = DIFFUSE_LIGHT_GROUPS + ("eevee_combined",)
-# whether the GI-off one render's emitter proxies cast shadows: no (docs/one_render.md). On Mesa their
-# shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 at 16 samples (benchmarks/pass_cost.py), and EEVEE's
-# soft shadows at 16 samples are noisy where the network passed the noise on; the network and the shot's lightmap
-# put the shadows back: withheld frames 38.15 dB unshadowed against 37.79 shadowed (same run, same command).
-# Models baked before record no setting and keep shadowed proxies (recorded_proxy_shadows).
-PROXY_SHADOWS_LOCAL = False
-# which sides of a planar emitter get a proxy in the GI-off one render: "open", only those facing open space
-# (direct_light.open_sides: the Cornell panel, 2 mm under the ceiling, gets one proxy, not two); "both",
-# every side (the rest render of the other models, and the one-render models baked without
-# this setting: recorded_proxy_sides)
-PROXY_SIDES_LOCAL = "open"
-# how the one render of each kind of one-render model is made: (ray tracing + fast GI, emitter proxies, the proxies'
-# shadows). eevee_diffuse: both on, no proxies (the models trained on it, docs/one_render.md); eevee_local: both off,
-# proxies on (a frame without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter
-# without its GI), PROXY_SHADOWS_LOCAL
-ONE_RENDER_MODES: dict[str, tuple[bool, bool, bool]] = {"eevee_diffuse": (True, False, True),
-                                                        "eevee_local": (False, True, PROXY_SHADOWS_LOCAL),
-                                                        # the same render, read as its Combined image
-                                                        "eevee_combined": (False, True, PROXY_SHADOWS_LOCAL)}
-assert tuple(ONE_RENDER_MODES) == ch.ONE_RENDER_GROUPS  # the bpy-free half names the same groups
+# How the one render is made: ray tracing and fast GI off, an area light standing in for each planar emitter
+# (a frame without EEVEE's GI: the network's GI replaces it, and EEVEE lights nothing from an emitter without its
+# GI). Its proxies cast no shadow: on Mesa their shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 at 16
+# samples (benchmarks/pass_cost.py), and EEVEE's soft shadows at 16 samples are noisy where the network passed the
+# noise on; the network and the shot's lightmap put the shadows back: withheld frames 38.15 dB unshadowed against
+# 37.79 shadowed (same run, same command). Only the sides of a planar emitter facing open space get a proxy
+# (direct_light.open_sides: the Cornell panel, 2 mm under the ceiling, gets one proxy, not two); the rest render of
+# the other models has one on both sides. A model whose bake recorded other proxies gets those (recorded_proxy_options).
+ONE_RENDER_SETTINGS = {"proxy_shadows": False, "proxy_sides": "open"}
 
 
 def _recorded_proxies(meta: dict) -> dict | None:
@@ -204,10 +192,6 @@ def _camera_only_world(world, name: str):
     nt.links.new(src, mix.inputs[2])  # input 1 (Fac 0) stays empty: no light
     nt.links.new(mix.outputs["Shader"], out.inputs["Surface"])
     return copy
-
-
-# the world during the G-buffer render, recorded in the manifest settings (eevee.world)
-WORLD_MODE = "camera_rays_only"  # "black" before the sky fix: then sky pixels of `eevee` were black
 
 
 @contextlib.contextmanager
@@ -370,30 +354,27 @@ def casts_no_shadow(scene) -> bool:
     return not (w is not None and getattr(w, "use_sun_shadow", False) and not world_is_black(w))
 
 
-# Whether _render turns EEVEE's shadows off for a render in which nothing casts one (casts_no_shadow): yes. On this
-# machine's Mesa EEVEE's shadow pipeline costs about two thirds of a render even when no light casts a shadow (Cornell
-# shot, 480x270, 16 samples: 26.3 CPU s with shadows on against 8.0 off, EEVEE GI; the GI-off one render with its
-# unshadowed proxy 29.0 against 10.7), and the image is the same to the bit (max |difference| 0 in every pass;
-# docs/one_render.md). The baseline EEVEE GI render of the reports keeps the scene's own setting.
-SKIP_UNUSED_SHADOWS = True
-# whether the last _render turned the shadows off (casts_no_shadow); whether the last render_rest left the Emission
-# pass out (SKIP_EMPTY_EMISSION)
+# whether the last _render turned the shadows off (casts_no_shadow), whether the last render_rest left the Emission
+# pass out, and whether it took the normals from the Z pass
 last_render = {"shadows_skipped": False, "emission_skipped": False, "normals_from_depth": False}
-# Whether render_rest leaves the Emission pass out where no used material of the file can write it
-# (direct_light.materials_may_emit) and gives the emission group as zeros: yes. The pass is black to the bit there
-# (tests/blender/test_pass_merge.py), and on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of
-# 22.5 (benchmarks/pass_flags.py; docs/one_render.md).
-SKIP_EMPTY_EMISSION = True
-# Whether a one-render frame (render_gbuffer's normals=None for a one-render model's groups) takes its normals from
-# the Z pass (model/images.normals_from_depth: the geometric normals) instead of writing EEVEE's Normal pass: yes.
-# On Mesa the Normal pass cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 alone and about 0.5 beside
-# the Diffuse Color and Z passes, of the 4.1 that EEVEE's own GI costs there (benchmarks/pass_flags.py;
-# the frame then came out at 0.978x plain EEVEE GI, benchmarks/pass_cost.py); the two normals differ by a median
-# 0.02-1.8 degrees on the artist test set, and the shipped one-render model scores 22.31 dB there at 320x180 with
-# either (world pixels get a zero normal, as in the Normal pass: the clip end in
-# _normals_from_depth; docs/one_render.md). Bakes keep the pass (bake.py asks normals="pass"), and so do the frames of a model with a
-# shot's lightmap or reflection map, which read each pixel's own normal (pipeline/render.py).
-NORMALS_FROM_DEPTH = True
+# Three savings of the render path's renders, each giving the same groups (tests/blender/test_pass_merge.py):
+# - _render turns EEVEE's shadows off for a render in which nothing casts one (casts_no_shadow). On Mesa EEVEE's
+#   shadow pipeline costs about two thirds of a render even when no light casts a shadow (Cornell shot, 480x270,
+#   16 samples: 26.3 CPU s with shadows on against 8.0 off, EEVEE GI; the GI-off one render with its unshadowed
+#   proxy 29.0 against 10.7), and the image is the same to the bit. The baseline EEVEE GI render of the reports
+#   keeps the scene's own setting (skip_unused_shadows=False).
+# - render_rest leaves the Emission pass out where no used material of the file can write it
+#   (direct_light.materials_may_emit) and gives the emission group as zeros: the pass is black to the bit there, and
+#   on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 (benchmarks/pass_flags.py).
+# - a one-render frame (render_gbuffer's normals=None for a one-render model's groups) takes its normals from the Z
+#   pass (model/images.normals_from_depth: the geometric normals) instead of writing EEVEE's Normal pass. On Mesa the
+#   Normal pass cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 alone and about 0.5 beside the Diffuse
+#   Color and Z passes, of the 4.1 that EEVEE's own GI costs there (benchmarks/pass_flags.py; the frame then came out
+#   at 0.978x plain EEVEE GI, benchmarks/pass_cost.py); the two normals differ by a median 0.02-1.8 degrees on the
+#   artist test set, and the shipped one-render model scores 22.31 dB there at 320x180 with either (world pixels get
+#   a zero normal, as in the Normal pass: the clip end in _normals_from_depth; docs/one_render.md). Bakes keep the
+#   pass (bake.py asks normals="pass"), and so do the frames of a model with a shot's lightmap or reflection map,
+#   which read each pixel's own normal (pipeline/render.py).
 
 
 @contextlib.contextmanager
@@ -410,11 +391,10 @@ def _unused_shadows_off(scene, skip: bool):
         ee.use_shadows = saved
 
 
-def _render(scene, composite: bool = False, skip_unused_shadows: bool | None = None
-            ) -> dict[str, dict[str, np.ndarray]]:
+def _render(scene, composite: bool = False, skip_unused_shadows: bool = True) -> dict[str, dict[str, np.ndarray]]:
     """Render ``scene`` and read every pass back; with ``composite`` the scene's compositor runs too and its
     output is the pass "Composite". Inside ``keep_render_file`` the read-back file stays. With
-    ``skip_unused_shadows`` (None: ``SKIP_UNUSED_SHADOWS``) an EEVEE render in which nothing casts a shadow
+    ``skip_unused_shadows`` an EEVEE render in which nothing casts a shadow
     (``casts_no_shadow``) is made with EEVEE's shadows off: the same image, a third of the time on Mesa."""
     global _swept
     _check_camera(scene)
@@ -427,7 +407,7 @@ def _render(scene, composite: bool = False, skip_unused_shadows: bool | None = N
         with _exr_output(scene):
             scene.render.use_compositing = composite
             vl = scene.view_layers[0]
-            with _unused_shadows_off(scene, SKIP_UNUSED_SHADOWS if skip_unused_shadows is None else skip_unused_shadows):
+            with _unused_shadows_off(scene, skip_unused_shadows):
                 bpy.ops.render.render(scene=scene.name, layer=vl.name)
             img = bpy.data.images.get("Render Result")
             if img is None:
@@ -497,10 +477,6 @@ def world_is_black(world) -> bool:
     return not col.links and max(col.default_value[:3]) <= 0.0
 
 
-# how the `world` group is rendered, recorded in the manifest settings (eevee.world_group)
-WORLD_GROUP_MODE = "diffuse_direct_lights_and_probes_hidden"
-
-
 def render_world(scene, samples: int = 1) -> np.ndarray:
     """The ``world`` group: EEVEE's Diffuse Direct pass with the lights hidden, i.e. the world's light on each
     surface without occlusion (EEVEE lights the diffuse direct pass from the world probe, unshadowed; measured
@@ -557,13 +533,6 @@ SHARED_GROUPS = ("albedo", "normal", "depth", "emission")
 last_timings: dict[str, float] = {}
 # which of those renders each group of the last render_gbuffer call came from
 last_sources: dict[str, str] = {}
-# how the `rest` group is made, recorded in the manifest settings (eevee.rest)
-REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings_no_lamp_culled"
-
-
-# The render path's rest render stands area lights in for planar emitters (direct_light.emitter_proxies): EEVEE
-# lights nothing from an emissive mesh off screen, so its reflections of the walls a panel lights were dark
-REST_EMITTER_PROXIES = True
 
 
 def _tree_reads_pass(scene, name: str) -> bool:
@@ -576,7 +545,7 @@ def _tree_reads_pass(scene, name: str) -> bool:
 
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
                 proxy_shadows: bool = True, proxy_sides: str = "both", rest: bool = True,
-                normals_from_depth: bool = False):
+                normals_from_depth: bool = False, skip_unused_shadows: bool = True, skip_empty_emission: bool = True):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
     ``SHARED_GROUPS``) a third item {group: array} read from the same render. ``rest`` = Combined - Diffuse
@@ -588,21 +557,21 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     highlights and reflections the rest holds are lit by the same lamps as the predicted diffuse light. At the
     scene's own threshold (Blender's default 0.01) the artist test set's studio rendered 16 % darker (Combined
     mean 0.312 against 0.374; 95 % of the pixels differ by more than 0.01) and its gold sphere reflected a dim
-    floor (docs/channels.md). ``groups`` may also hold ``eevee_diffuse`` (REST_LIGHT_GROUPS: the Diffuse Direct
-    pass, EEVEE's own diffuse light) or ``eevee_local`` (the same pass, of a GI-off render). ``gi`` True / False
-    switches ray tracing and fast GI on / off whatever the scene says (their other settings stay the artist's):
-    the one-render models were trained on EEVEE's diffuse light with both on (``eevee_diffuse``) or both off
-    (``eevee_local``); None keeps the scene's. With ``proxies`` an area light stands in for each planar emitter during the render
-    (``direct_light.emitter_proxies``; the render path's and the bakes' rest, ``REST_EMITTER_PROXIES``), so that
-    EEVEE's reflections and transmission see the light the emitters cast; without, the render is EEVEE's own.
-    ``proxy_shadows`` False: the proxies cast no shadow (``ONE_RENDER_MODES``); ``proxy_sides`` "open": a proxy only
-    for the sides of an emitter that face open space (``PROXY_SIDES_LOCAL``). ``rest`` False: the render writes only
+    floor (docs/channels.md). ``groups`` may also hold ``eevee_local`` (REST_LIGHT_GROUPS: the Diffuse Direct
+    pass, EEVEE's own diffuse light) and ``eevee_combined`` (the Combined image). ``gi`` True / False switches ray
+    tracing and fast GI on / off whatever the scene says (their other settings stay the artist's): the one render is
+    made with both off; None keeps the scene's. With ``proxies`` an area light stands in for each planar emitter
+    during the render (``direct_light.emitter_proxies``; the render path's and the bakes' rest), so that EEVEE's
+    reflections and transmission see the light the emitters cast (without, EEVEE lights nothing from an emissive mesh
+    off screen, and its reflections of the walls a panel lights were dark); without, the render is EEVEE's own.
+    ``proxy_shadows`` False: the proxies cast no shadow; ``proxy_sides`` "open": a proxy only for the sides of an
+    emitter that face open space (``ONE_RENDER_SETTINGS``). ``rest`` False: the render writes only
     the passes of ``groups`` (no Diffuse Color or Diffuse Direct for a rest) and the first item is None; with
     ``groups`` holding ``eevee_combined`` (that render's Combined RGB) and not ``eevee_local``, the render of a
     ref_combined model's frame, which needs no Diffuse Direct pass. ``normals_from_depth`` with ``groups`` holding
     ``normal`` and ``depth``: no Normal pass is written, the normals are the surfaces' geometric ones from the Z pass
-    (``NORMALS_FROM_DEPTH``). Where no used material can emit, no Emission pass is written and ``emission`` is zeros
-    (``SKIP_EMPTY_EMISSION``). The settings it changes are put back."""
+    (``last_render``). With ``skip_empty_emission``, where no used material can emit no Emission pass is written and
+    ``emission`` is zeros; ``skip_unused_shadows``: as ``_render``'s. The settings it changes are put back."""
     from . import direct_light
 
     _check_camera(scene)
@@ -621,10 +590,10 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         # the Emission pass of a file where nothing can emit is black: not written, zeros instead (exact)
         # (the view layer's flag, which setup_scene turns on for the model's passes, is off for the render and put
         # back after it; kept on where the artist's compositor tree reads the pass from a Render Layers node)
-        black = ("emission",) if ("emission" in groups and SKIP_EMPTY_EMISSION
+        black = ("emission",) if ("emission" in groups and skip_empty_emission
                                   and not _tree_reads_pass(scene, PASS_NAMES["emission"])
                                   and not direct_light.materials_may_emit()) else ()
-        # the normals from the Z pass instead of a Normal pass (NORMALS_FROM_DEPTH)
+        # the normals from the Z pass instead of a Normal pass
         derived = ("normal",) if (normals_from_depth and "normal" in groups and "depth" in groups
                                   and not _tree_reads_pass(scene, PASS_NAMES["normal"])) else ()
         last_render["emission_skipped"], last_render["normals_from_depth"] = bool(black), bool(derived)
@@ -635,7 +604,7 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         for g in black + derived:
             setattr(vl, ch.GROUPS[g].blender_pass, False)
         t0 = time.perf_counter()
-        passes = _render(scene)
+        passes = _render(scene, skip_unused_shadows=skip_unused_shadows)
         last_timings["rest"] = time.perf_counter() - t0
     comb = passes["Combined"]
     combined = np.stack([comb[c] for c in "RGBA"], axis=-1).astype(np.float32)
@@ -678,9 +647,10 @@ INPUT_RENDER_GROUPS: tuple[str, ...] = (EEVEE_GROUPS + ("emit_direct", "surround
 
 def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
-                   raster_samples: int | None = None, proxies: bool = REST_EMITTER_PROXIES,
+                   raster_samples: int | None = None, proxies: bool = True,
                    proxy_shadows: bool | None = None, proxy_sides: str | None = None,
-                   normals: str | None = None) -> dict[str, np.ndarray]:
+                   normals: str | None = None, skip_unused_shadows: bool = True,
+                   skip_empty_emission: bool = True) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
     hit (tests/blender/test_bake.py checks that Diffuse Direct is the same either way). ``world``,
@@ -691,19 +661,18 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     render (bit-identical; docs/one_render.md), and the direct-only render is made only for what is left
     (``direct``, ``eevee``, ``ao``), at ``raster_samples`` (default ``samples``; 1 changes ``direct`` on edges
     and was measured, not made the default: docs/one_render.md). ``last_timings`` holds each render's seconds,
-    ``last_sources`` which render each group came from. ``eevee_diffuse`` (EEVEE's own diffuse light) comes
-    from the artist-settings render too, made with ray tracing and fast GI on (``render_rest(gi=True)``); asked
-    for it, the SHARED_GROUPS (and the motion vectors) come from that render whatever the samples, so that a
-    one-render model's every input is of that one render (docs/one_render.md). ``eevee_local`` (a GI-off one-render
-    model) likewise, from that render made with ray tracing and fast GI off and the emitter proxies on
-    (``ONE_RENDER_MODES``). ``proxies``: the rest render stands area lights in for planar emitters
-    (``render_rest``; not for ``eevee_diffuse``, an input the one-render models were trained on without);
-    ``proxy_shadows``: whether they cast shadows (None: ``ONE_RENDER_MODES``' for a one-render model, else True;
-    a model's own is ``recorded_proxy_shadows``); ``proxy_sides``: which sides of an emitter get one (None:
-    ``PROXY_SIDES_LOCAL`` for a GI-off one-render model, else "both"; a model's own is ``recorded_proxy_sides``).
-    ``normals``: "pass" (EEVEE's Normal pass) or "depth" (the geometric normals from the Z pass, where the normal and
-    the depth come from the artist-settings render: ``render_rest(normals_from_depth=True)``); None: "depth" for a
-    one-render model's groups when ``NORMALS_FROM_DEPTH``, else "pass". The scene's render settings are put back."""
+    ``last_sources`` which render each group came from. ``eevee_combined`` and ``eevee_local`` (a one-render
+    model's one render, docs/one_render.md) come from the artist-settings render made with ray tracing and fast GI
+    off and the emitter proxies on; asked for either, the SHARED_GROUPS (and the motion vectors) come from that
+    render whatever the samples, so that a one-render model's every input is of that one render. ``proxies``: the
+    rest render stands area lights in for planar emitters (``render_rest``); ``proxy_shadows``: whether they cast
+    shadows (None: ``ONE_RENDER_SETTINGS``' for a one-render model, else True; a model's own is
+    ``recorded_proxy_shadows``); ``proxy_sides``: which sides of an emitter get one (None: ``ONE_RENDER_SETTINGS``'
+    for a one-render model, else "both"; a model's own is ``recorded_proxy_sides``). ``normals``: "pass" (EEVEE's
+    Normal pass) or "depth" (the geometric normals from the Z pass, where the normal and the depth come from the
+    artist-settings render: ``render_rest(normals_from_depth=True)``); None: "depth" for a one-render model's groups,
+    else "pass". ``skip_unused_shadows``, ``skip_empty_emission``: the savings of ``_render`` and ``render_rest``
+    (the same groups either way). The scene's render settings are put back."""
     from . import direct_light
 
     groups = tuple(groups) if groups is not None else EEVEE_GROUPS
@@ -718,16 +687,12 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     last_sources.clear()
     last_render["emission_skipped"] = last_render["normals_from_depth"] = False
     rest_at = int(rest_samples) if rest_samples else int(scene.eevee.taa_render_samples)
-    ones = [g for g in groups if g in REST_LIGHT_GROUPS]
-    if len({ONE_RENDER_MODES[g] for g in ones}) > 1:
-        raise ValueError(f"groups {ones} come from different one-render renders (ray tracing and fast GI on / off): "
-                         "ask for one")
-    one = bool(ones)  # a one-render model: every group from its one render
-    gi, proxied, shadowed = ONE_RENDER_MODES[ones[0]] if ones else (None, proxies, True)
-    if proxy_shadows is not None:
-        shadowed = bool(proxy_shadows)
-    sides = proxy_sides or (PROXY_SIDES_LOCAL if ones and "eevee_diffuse" not in ones else "both")
-    normals = normals or ("depth" if ones and NORMALS_FROM_DEPTH else "pass")
+    one = any(g in REST_LIGHT_GROUPS for g in groups)  # a one-render model: every group from its one render
+    gi, proxied = (False, True) if one else (None, proxies)
+    shadowed = bool(proxy_shadows) if proxy_shadows is not None else (ONE_RENDER_SETTINGS["proxy_shadows"] if one
+                                                                        else True)
+    sides = proxy_sides or (ONE_RENDER_SETTINGS["proxy_sides"] if one else "both")
+    normals = normals or ("depth" if one else "pass")
     if normals not in ("pass", "depth"):
         raise ValueError(f"normals {normals!r}: 'pass' or 'depth'")
     if sides not in ("open", "both"):
@@ -760,13 +725,14 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
         if raster:
             configure_gbuffer(scene, raster, samples=raster_samples or samples)
             with _direct_only_world(scene, keep_sky=keep_sky), hard_lights(scene):
-                passes = timed("raster", _render, scene)
+                passes = timed("raster", _render, scene, skip_unused_shadows=skip_unused_shadows)
             out.update({g: _group(passes, g) for g in raster})
     # (a ref_combined model's frame: its one render without the Diffuse Direct pass a rest would need)
     need_rest = not one or "rest" in groups or any(g in DIFFUSE_LIGHT_GROUPS for g in groups)
     if with_rest:
         made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed,
-                           proxy_sides=sides, rest=need_rest, normals_from_depth=normals == "depth")
+                           proxy_sides=sides, rest=need_rest, normals_from_depth=normals == "depth",
+                           skip_unused_shadows=skip_unused_shadows, skip_empty_emission=skip_empty_emission)
         out["beauty"] = made[1]
         if made[0] is not None:
             out["rest"] = made[0]

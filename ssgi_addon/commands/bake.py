@@ -11,7 +11,7 @@ import sys
 from ...model import cliargs
 from ...model.errors import UserError
 from ..blender.reference import DEFAULT_REF_TARGET_DB, DENOISED_REF_SAMPLES
-from ..pipeline.bake import ONE_RENDER_KINDS, BakeConfig
+from ..pipeline.bake import BakeConfig
 
 
 def run_bake(args) -> dict:
@@ -80,16 +80,13 @@ def register_cli(sub) -> None:
     p.add_argument("--eevee-samples", type=cliargs.positive_int, default=D.eevee_samples,
                    help="EEVEE render samples of the G-buffer (default %(default)s)")
     p.add_argument("--gi-samples", type=cliargs.nonnegative_int, default=0, metavar="N",
-                   help="a one-render bake: the samples hold what one-render models read, from EEVEE's render of "
-                        "the room with ray tracing and fast GI on at N samples (eevee_diffuse, rest, albedo, normal, "
-                        "depth, emission), and no world, soft direct or emitter renders (docs/one_render.md; "
-                        "default 0: the full bake)")
-    p.add_argument("--one-render", choices=tuple(ONE_RENDER_KINDS), default="gi",
-                   help="with --gi-samples, the kind of one render: gi (ray tracing and fast GI on, eevee_diffuse) or "
-                        "local (both off, an area light standing in for each planar emitter; eevee_local and the "
-                        "Glossy Color gloss): a GI-off one-render model's inputs; or combined (the same render, its "
-                        "Combined image stored as eevee_combined too: the inputs of models that read no Diffuse Direct "
-                        "pass, cli.py fit --one-render combined) (default %(default)s)")
+                   help="with --one-render, the samples of its one EEVEE render (default 0: no one-render bake)")
+    p.add_argument("--one-render", action="store_true",
+                   help="a one-render bake (needs --gi-samples N): the samples hold what one-render models read, from "
+                        "EEVEE's render of the room with ray tracing and fast GI off and an area light standing in for "
+                        "each planar emitter at N samples (its Combined image eevee_combined, rest, albedo, normal, "
+                        "depth, emission, its Diffuse Direct eevee_local and Glossy Color gloss), and no world, soft "
+                        "direct or emitter renders (docs/one_render.md)")
     p.add_argument("--rest-samples", type=cliargs.nonnegative_int, default=0, metavar="N",
                    help="the samples also hold EEVEE's rest (all it renders besides diffuse light) of the scene at its "
                         "own settings at N samples, as the node renders it: what a fit that learns the rest "

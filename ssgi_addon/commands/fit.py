@@ -15,7 +15,7 @@ import re
 
 from ...model import cliargs
 from ...model.errors import UserError
-from ..pipeline.fit import ONE_RENDER_DEFAULT, ONE_RENDER_FITS, FitSceneConfig
+from ..pipeline.fit import FitSceneConfig
 from . import command_line, progress_sink
 
 
@@ -34,7 +34,7 @@ def config(args) -> FitSceneConfig:
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
                           frames=args.frames, learn_rest=args.learn_rest,
                           rest_samples=args.rest_samples, lightmap=not args.no_lightmap,
-                          reflmap=not args.no_reflmap, one_render=args.one_render or False,
+                          reflmap=not args.no_reflmap, one_render=args.one_render,
                           command=command_line())
 
 
@@ -123,14 +123,12 @@ def register_cli(sub) -> None:
     p.add_argument("--rest-samples", type=cliargs.positive_int, default=None, metavar="N",
                    help="with --learn-rest, or a shot fit's reflection map: EEVEE samples of the views' rest "
                         "(default: the scene's own, as the node renders it; fewer make the bake cheaper)")
-    p.add_argument("--one-render", nargs="?", const=ONE_RENDER_DEFAULT, default=None, choices=tuple(ONE_RENDER_FITS),
-                   metavar="KIND",
-                   help="fit a GI-off one-render model: each frame of the node is then ONE EEVEE render with ray "
-                        "tracing and fast GI off (the network and the shot's lightmap give the GI), at about the cost of "
-                        "EEVEE's own GI render at the same samples (docs/one_render.md); the views hold that "
-                        "render's passes and the fit trains small networks from scratch on them. KIND: combined (the "
-                        "default) reads its Combined image, so the frames render no Diffuse Direct pass (a glossy "
-                        "shot's reflection map then corrects only where the albedo is black: metal, mirrors); local "
-                        "reads its Diffuse Direct pass, composed with its rest")
+    p.add_argument("--one-render", action="store_true",
+                   help="fit a one-render model: each frame of the node is then ONE EEVEE render with ray tracing and "
+                        "fast GI off (the network and the shot's lightmap give the GI), at about the cost of EEVEE's "
+                        "own GI render at the same samples (docs/one_render.md); the views hold that render's passes "
+                        "and the fit trains small networks from scratch on its Combined image, so the frames render no "
+                        "Diffuse Direct pass (a glossy shot's reflection map then corrects only where the albedo is "
+                        "black: metal, mirrors)")
     p.add_argument("--progress", action="store_true", help="progress as JSON lines on stderr (for the UI)")
     p.set_defaults(func=run)

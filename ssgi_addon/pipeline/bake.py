@@ -32,57 +32,54 @@ BAKE_INPUT_GROUPS = tuple(g for g in passes.INPUT_RENDER_GROUPS
                           if g not in ("rest",) + passes.EXTRA_GROUPS + passes.REST_ONLY_GROUPS)
 # (sky, the world's L1 light at the normal: only the one-render bakes hold it)
 BAKE_GROUPS = tuple(g for g in BAKE_INPUT_GROUPS if g not in passes.REST_LIGHT_GROUPS + ("sky",)) + CYCLES_SAMPLE_GROUPS
-# a one-render bake (--gi-samples N; docs/one_render.md): what one-render models read, all of it from
-# the artist-settings render at N samples with ray tracing and fast GI on (eevee_diffuse, albedo, normal, depth,
-# emission) and the image composed from it (rest); surround (ray casts); sky (the world's L1 light at the normal,
-# no render of the scene); the 1-sample direct-only raster's
-# direct, ao and eevee (groups every sample holds; cheap); the references. No world, direct_soft, emit_direct:
-# those three renders are what a one-render model does without.
+# a one-render bake (--gi-samples N --one-render; docs/one_render.md): what one-render models read, all of it from
+# the artist-settings render at N samples with ray tracing and fast GI off and the emitter proxies on
+# (passes.ONE_RENDER_SETTINGS): its Combined image (eevee_combined), the image composed from it (rest), albedo,
+# normal, depth, emission, its Diffuse Direct pass (eevee_local) and Glossy Color (gloss; the fit's report, a shot's
+# lightmap and reflection map); surround (ray casts); sky (the world's L1 light at the normal, no render of the
+# scene); the 1-sample direct-only raster's direct, ao and eevee (groups every sample holds; cheap); the references.
+# No world, direct_soft, emit_direct: those three renders are what a one-render model does without.
 ONE_RENDER_BAKE_GROUPS = ("albedo", "normal", "depth", "direct", "ao", "emission", "eevee", "surround", "sky",
-                          "eevee_diffuse", "rest") + CYCLES_SAMPLE_GROUPS
-# the kinds of one-render bake (--one-render): "gi" as above; "local", the one render made with ray tracing and fast
-# GI off and the emitter proxies on (passes.ONE_RENDER_MODES), its Diffuse Direct stored as eevee_local, and its Glossy
-# Color (gloss, for a shot's reflection map)
-# "combined": the same GI-off render as "local", its Combined image stored as eevee_combined (what ref_combined models
-# read instead of the Diffuse Direct pass) beside its eevee_local and gloss (the fit's report and maps)
-ONE_RENDER_KINDS = {"gi": "eevee_diffuse", "local": "eevee_local", "combined": "eevee_combined"}
-# ... and the groups of the one render each kind stores besides its light, rest and the shared groups
-ONE_RENDER_EXTRA = {"gi": (), "local": ("gloss",), "combined": ("eevee_local", "gloss")}
+                          "eevee_combined", "rest") + CYCLES_SAMPLE_GROUPS + ("eevee_local", "gloss")
+# the kind a one-render bake's manifest records (eevee.one_render.kind)
+ONE_RENDER_KIND = "combined"
 
 
-def one_render_bake_groups(kind: str = "gi") -> tuple[str, ...]:
-    """What the samples of a one-render bake of ``kind`` (ONE_RENDER_KINDS) hold."""
-    light = ONE_RENDER_KINDS[kind]
-    return tuple(light if g == "eevee_diffuse" else g for g in ONE_RENDER_BAKE_GROUPS) + ONE_RENDER_EXTRA[kind]
 ROOM_MODES = room.MODES
 
 
 def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, scenes=None, frames=None,
-              ref_target_db=None, mode="diffuse", gi_samples=0, rest_samples=0, one_render="gi"):
+              ref_target_db=None, mode="diffuse", gi_samples=0, rest_samples=0):
     s = _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, scenes, frames, ref_target_db,
                        mode)
     if rest_samples and not gi_samples:
-        s["eevee"]["rest"] = {"samples": int(rest_samples), "mode": passes.REST_MODE,
+        s["eevee"]["rest"] = {"samples": int(rest_samples), "mode": REST_MODE,
                               "render": "the scene's own EEVEE settings (passes.render_rest), as the node renders it",
-                              "emitter_proxies": passes.REST_EMITTER_PROXIES}
+                              "emitter_proxies": True}
     if gi_samples:
-        light = ONE_RENDER_KINDS[one_render]
-        gi, proxies, shadows = passes.ONE_RENDER_MODES[light]
-        s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": gi, "fast_gi": gi, "kind": one_render,
-                                    "emitter_proxies": proxies, "emitter_proxy_shadows": shadows if proxies else None,
-                                    "emitter_proxy_sides": (passes.PROXY_SIDES_LOCAL if light != "eevee_diffuse" else "both")
-                                    if proxies else None,
-                                    "groups_from_it": [light, "rest", *passes.SHARED_GROUPS,
-                                                       *ONE_RENDER_EXTRA[one_render]],
-                                    "rest": passes.REST_MODE}
+        one = passes.ONE_RENDER_SETTINGS
+        s["eevee"]["one_render"] = {"gi_samples": int(gi_samples), "raytracing": False, "fast_gi": False,
+                                    "kind": ONE_RENDER_KIND, "emitter_proxies": True,
+                                    "emitter_proxy_shadows": one["proxy_shadows"],
+                                    "emitter_proxy_sides": one["proxy_sides"],
+                                    "groups_from_it": ["eevee_combined", "rest", *passes.SHARED_GROUPS,
+                                                       "eevee_local", "gloss"],
+                                    "rest": REST_MODE}
     return s
+
+
+# how the rest group is made (passes.render_rest), as the manifests record it (eevee.rest.mode)
+REST_MODE = "combined_minus_diffuse_color_times_diffuse_light_at_the_scenes_own_eevee_settings_no_lamp_culled"
 
 
 def _base_settings(kind, size, ref_samples, denoise, eevee_samples, first_seed, scenes, frames, ref_target_db, mode):
     return ds.settings(kind, size, ref_samples, denoise, eevee_samples, diffuse_bounces=passes.DIFFUSE_BOUNCES,
                     ref_target_db=ref_target_db, first_seed=first_seed, scenes=scenes, frames=frames, room_mode=mode,
-                    eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0, "world": passes.WORLD_MODE,
-                           "world_group": passes.WORLD_GROUP_MODE,
+                    eevee={"raytracing": False, "fast_gi": False, "light_threshold": 0.0,
+                           # (camera rays see the scene's world during the G-buffer render: passes._direct_only_world)
+                           "world": "camera_rays_only",
+                           # (passes.render_world)
+                           "world_group": "diffuse_direct_lights_and_probes_hidden",
                            "hard_lights": {"point_spot_radius": 0.0, "sun_angle": 0.0,
                                            "area_size_m": passes.AREA_LIGHT_SIZE},
                            "direct_soft": {"samples": direct_light.SOFT_SAMPLES, "jitter": direct_light.SOFT_JITTER,
@@ -99,15 +96,14 @@ def render_sample(scene, ref_samples: int, denoise: bool, eevee_samples: int, re
                   ref_target_db: float | None = None, gi_samples: int = 0,
                   rest_samples: int = 0) -> tuple[dict, dict, dict]:
     """Render one sample of ``scene``: ({group: HxWxC}, timings in seconds, reference info). ``gi_samples``:
-    the samples of the artist-settings render that gives eevee_diffuse and rest (a one-render bake).
+    the samples of the artist-settings render that gives eevee_combined, eevee_local and rest (a one-render bake).
     ``rest_samples``: also EEVEE's ``rest`` of the scene at its own settings at that many samples, as the node
     renders it (a render of its own; the other groups are as without it)."""
     t0 = time.perf_counter()
     eevee_groups = BAKE_INPUT_GROUPS if eevee_groups is None else tuple(eevee_groups)
     if rest_samples and "rest" not in eevee_groups:
         eevee_groups += ("rest",)
-    # (a bake stores EEVEE's Normal pass: the render path's one-render frames take theirs from the depth,
-    # passes.NORMALS_FROM_DEPTH)
+    # (a bake stores EEVEE's Normal pass: the render path's one-render frames take theirs from the depth)
     groups = passes.render_gbuffer(scene, eevee_groups, samples=eevee_samples, keep_sky=keep_sky,
                                    rest_samples=gi_samples or rest_samples or None, normals="pass")
     groups.pop("beauty", None)
@@ -177,7 +173,7 @@ def _complete(out, name, manifest) -> bool:
 
 def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bool, eevee_samples: int,
               shard=None, scenes=None, frames=None, scene=None, ref_target_db: float | None = None,
-              mode: str = "diffuse", gi_samples: int = 0, rest_samples: int = 0, one_render: str = "gi"):
+              mode: str = "diffuse", gi_samples: int = 0, rest_samples: int = 0):
     """Bake step by step (see module doc): a generator that yields one event dict after setting up and one
     after each sample, so that a caller on Blender's main thread (the Bake Dataset operator) can bake one
     sample per tick, and stop between any two samples leaving a valid, resumable dataset.
@@ -198,17 +194,16 @@ def iter_bake(out, *, count: int, seed: int, size, ref_samples: int, denoise: bo
     if scenes:
         settings = _settings("scenes", (w, h), ref_samples, denoise, eevee_samples, scenes=scenes,
                              frames=list(frames) if frames else None, ref_target_db=target, gi_samples=gi_samples,
-                             rest_samples=rest_samples, one_render=one_render)
+                             rest_samples=rest_samples)
     else:
         settings = _settings("rooms", (w, h), ref_samples, denoise, eevee_samples, first_seed=seed,
-                             ref_target_db=target, mode=mode, gi_samples=gi_samples, rest_samples=rest_samples,
-                             one_render=one_render)
+                             ref_target_db=target, mode=mode, gi_samples=gi_samples, rest_samples=rest_samples)
     # list the jobs first: an unreadable .blend or a scene without a camera stops before the folder is touched
     jobs = _scene_jobs(scenes, frames) if scenes else list(_room_jobs(count, seed))
     if shard is not None:
         jobs = [(i, info) for i, info in jobs if i % shard[1] == shard[0]]
     manifest = ds.prepare_folder(out, settings, bpy.app.version_string, shard,
-                                 groups=one_render_bake_groups(one_render) if gi_samples else
+                                 groups=ONE_RENDER_BAKE_GROUPS if gi_samples else
                                  BAKE_GROUPS + (("rest",) + passes.REST_ONLY_GROUPS if rest_samples else ()))
     mname = ds.shard_manifest_name(shard)
     if shard is not None:
@@ -298,20 +293,19 @@ class BakeConfig:
     scenes: list | None = None  # bake these .blend files' cameras instead of rooms
     frames: list | None = None  # frames of the scenes (None: each scene's current frame)
     mode: str = "diffuse"  # random rooms: "diffuse" (the seed's) or "artist" (room.MODES; docs/artist_rooms.md)
-    gi_samples: int = 0  # > 0: a one-render bake, its artist-settings render at this many samples (docs/one_render.md)
-    one_render: str = "gi"  # ... of this kind (ONE_RENDER_KINDS): "gi" ray tracing + fast GI on, "local" both off,
-    # "combined" as local, its Combined image stored too
+    one_render: bool = False  # a one-render bake (docs/one_render.md) ...
+    gi_samples: int = 0  # ... its artist-settings render at this many samples
     rest_samples: int = 0  # > 0: the samples also hold EEVEE's rest at the scene's settings at this many samples
 
     def check(self) -> None:
         """UserError naming the setting, before the folder is touched."""
         _check_args(int(self.size[0]), int(self.size[1]), self.count, self.ref_samples, self.shard, self.scenes,
                     self.mode)
-        if self.one_render not in ONE_RENDER_KINDS:
-            raise UserError(f"--one-render {self.one_render}: not a kind of one-render bake; known: "
-                            f"{', '.join(ONE_RENDER_KINDS)}")
-        if self.one_render != "gi" and not self.gi_samples:
-            raise UserError(f"--one-render {self.one_render} needs --gi-samples N (the samples of the one render)")
+        if self.one_render and not self.gi_samples:
+            raise UserError("--one-render needs --gi-samples N (the samples of the one render)")
+        if self.gi_samples and not self.one_render:
+            raise UserError(f"--gi-samples {self.gi_samples}: the samples of a one-render bake's render; give "
+                            "--one-render too")
         resolve_ref_target(self.ref_target_db, self.denoise)
 
 
@@ -323,7 +317,7 @@ def run(cfg: BakeConfig, progress=None, should_stop=None, on_start=None, scene=N
     gen = iter_bake(cfg.out, count=cfg.count, seed=cfg.seed, size=cfg.size, ref_samples=cfg.ref_samples,
                     denoise=cfg.denoise, eevee_samples=cfg.eevee_samples, shard=cfg.shard, scenes=cfg.scenes,
                     frames=cfg.frames, scene=scene, ref_target_db=cfg.ref_target_db, mode=cfg.mode,
-                    gi_samples=cfg.gi_samples, rest_samples=cfg.rest_samples, one_render=cfg.one_render)
+                    gi_samples=cfg.gi_samples if cfg.one_render else 0, rest_samples=cfg.rest_samples)
     start = next(gen)
     if on_start:
         on_start(start)

@@ -76,33 +76,23 @@ def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
     return ladder, target
 
 
-# what a GI-off one-render fit's scratch networks read: every group of the one render (passes.ONE_RENDER_MODES) and
-# its emission statistics, the surround ray casts (no render), never the hard direct light or the other renders
-ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_local,glow,surround"
-ONE_RENDER_HEAD = "residual_local"
-# ... of each kind (--one-render KIND): "local" reads the render's Diffuse Direct pass (eevee_local) and is composed
-# with its rest; "combined" reads its Combined image instead (eevee_combined: no Diffuse Direct pass in the frame's
-# render), learns target ref_combined with head residual_combined and is composed as that image + its
-# prediction. {kind: (inputs, head, target: None = the views' default ref_diffuse)}
-ONE_RENDER_FITS: dict[str, tuple[str, str, str | None]] = {
-    "local": (ONE_RENDER_INPUTS, ONE_RENDER_HEAD, None),
-    "combined": ("albedo,normal,depth,emission,eevee_combined,glow,surround", "residual_combined", ch.COMBINED_TARGET)}
-# the kind ``cli.py fit --one-render`` and the Fit panel's One Render fit when none is named: combined
-# (withheld frames of three shots, docs/one_render.md, with the lightmap on edges: room 37.56 against local 36.56 dB,
-# Cornell 39.16 against 38.54, living room 36.50 against 29.16; and its frames render one pass fewer)
-ONE_RENDER_DEFAULT = "combined"
+# what a one-render fit's scratch networks read: every group of the one render (passes.ONE_RENDER_SETTINGS) but its
+# Diffuse Direct pass, its emission statistics and the surround ray casts (no render), never the hard direct light or
+# the other renders; they learn target ref_combined with head residual_combined, composed as EEVEE's GI-off Combined
+# image + their prediction
+ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_combined,glow,surround"
+ONE_RENDER_HEAD = "residual_combined"
 
 
-def one_render_ladder(ladder, target, shot: bool, kind: str = "local") -> tuple[list, float | None, str]:
-    """(ladder, target PSNR, inputs) of a GI-off one-render fit of ``kind`` (ONE_RENDER_FITS): ``ladder`` (None:
-    model.learn.fit.LADDER) with the kind's head, which starts from the one render's own light, on its inputs; a shot
-    aims at the shot bar (fit_report.SHOT_BAR_DB) unless ``target`` says otherwise."""
+def one_render_ladder(ladder, target, shot: bool) -> tuple[list, float | None, str]:
+    """(ladder, target PSNR, inputs) of a one-render fit: ``ladder`` (None: model.learn.fit.LADDER) with head
+    ONE_RENDER_HEAD, which starts from the one render's own image, on ONE_RENDER_INPUTS; a shot aims at the shot bar
+    (fit_report.SHOT_BAR_DB) unless ``target`` says otherwise."""
     from ...model.evaluate.fit_report import SHOT_BAR_DB
     from ...model.learn.fit import LADDER
-    inputs, head, _ = ONE_RENDER_FITS[kind]
     rows = [list(r) for r in (LADDER if not ladder else ladder)]
-    rows = [[n, v, dict(o or {}, head=head)] for n, v, o in rows]
-    return rows, (SHOT_BAR_DB if target is None and shot else target), inputs
+    rows = [[n, v, dict(o or {}, head=ONE_RENDER_HEAD)] for n, v, o in rows]
+    return rows, (SHOT_BAR_DB if target is None and shot else target), ONE_RENDER_INPUTS
 
 
 def starts_to_probe(cfg, init, shot: bool) -> list[str]:
@@ -152,26 +142,15 @@ class FitSceneConfig:
     # ... and a reflection map (model/infer/reflmap.py) when its views show glossy surfaces: the views then hold
     # EEVEE's rest and Glossy Color at the node's settings (off: --no-reflmap)
     reflmap: bool = True
-    # a GI-off one-render model (docs/one_render.md): the views hold only what one EEVEE render with ray
-    # tracing and fast GI off gives (eevee_local, albedo, normal, depth, emission, rest, gloss; passes.ONE_RENDER_MODES),
-    # scratch networks learn from it, and each frame of the node is that one render. A kind (ONE_RENDER_FITS; True:
-    # ONE_RENDER_DEFAULT): "combined" reads that render's Combined image (head residual_combined), so the node's frames
-    # render no Diffuse Direct pass; "local" reads its Diffuse Direct pass (head residual_local)
-    one_render: bool | str = False
+    # a one-render model (docs/one_render.md): the views hold only what one EEVEE render with ray tracing and fast
+    # GI off gives (eevee_combined, eevee_local, albedo, normal, depth, emission, rest, gloss;
+    # passes.ONE_RENDER_SETTINGS), scratch networks learn from its Combined image (ONE_RENDER_INPUTS), and each frame
+    # of the node is that one render, without its Diffuse Direct pass
+    one_render: bool = False
     command: str | None = None  # recorded in the checkpoint
-
-    @property
-    def one_render_kind(self) -> str | None:
-        """The kind of one-render fit (ONE_RENDER_FITS), None for another fit."""
-        if not self.one_render:
-            return None
-        return ONE_RENDER_DEFAULT if self.one_render is True else str(self.one_render)
 
     def check(self) -> None:
         """UserError naming the setting, before any work (nothing is written)."""
-        if self.one_render_kind is not None and self.one_render_kind not in ONE_RENDER_FITS:
-            raise UserError(f"--one-render {self.one_render}: not a kind of one-render fit; known: "
-                            f"{', '.join(ONE_RENDER_FITS)}")
         if self.one_render and self.learn_rest:
             raise UserError("--one-render and --learn-rest: a one-render model learns Cycles' diffuse part beside the "
                             "one render's rest; give one of them")
@@ -252,12 +231,12 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         plan.update(size=list(size), blend=str(blend))
         if cfg.one_render:  # every group from the one GI-off render, at the scene's own samples
             plan["one_render"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
-            if cfg.one_render_kind != "local":  # (the tag of views baked before kinds existed stays theirs)
-                plan["one_render_kind"] = cfg.one_render_kind
-            # (in the views' tag: views baked with the emitter proxies' other shadows are not reused)
-            from ..blender.passes import ONE_RENDER_MODES, PROXY_SIDES_LOCAL
-            plan["proxy_shadows"] = ONE_RENDER_MODES["eevee_local"][2]
-            plan["proxy_sides"] = PROXY_SIDES_LOCAL
+            from ..blender.passes import ONE_RENDER_SETTINGS
+            from .bake import ONE_RENDER_KIND
+            # (in the views' tag: views of another one render are not reused)
+            plan["one_render_kind"] = ONE_RENDER_KIND
+            plan["proxy_shadows"] = ONE_RENDER_SETTINGS["proxy_shadows"]
+            plan["proxy_sides"] = ONE_RENDER_SETTINGS["proxy_sides"]
             plan["glossy"] = bool(has_glossy(scene))
         elif cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
             plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
@@ -272,8 +251,7 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
         data_dir = work / f"views-{tag}"
         report(dict(phase="bake", message=f"baking {len(plan['cameras']) * len(plan['frames'])} views", progress=0.0))
         bake_views(wblend, data_dir, plan, size, ref_samples=cfg.ref_samples, log=log,
-                   rest_samples=plan.get("rest_samples", 0), one_render=plan.get("one_render", 0),
-                   one_render_kind=plan.get("one_render_kind", "local"))
+                   rest_samples=plan.get("rest_samples", 0), one_render=plan.get("one_render", 0))
         bake_s = time.perf_counter() - t0
         log(f"fit: views baked in {bake_s / 60:.2f} min")
     train, val, test = fviews.split_views(data_dir, plan)
@@ -303,8 +281,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     inputs = None
     learn = ch.REST_TARGET if cfg.learn_rest else None
     if cfg.one_render:
-        ladder, target, inputs = one_render_ladder(ladder, target, bool(withheld), cfg.one_render_kind)
-        learn = ONE_RENDER_FITS[cfg.one_render_kind][2]
+        ladder, target, inputs = one_render_ladder(ladder, target, bool(withheld))
+        learn = ch.COMBINED_TARGET
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
                           minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,
                           seed=cfg.seed, drop_tol=cfg.drop_tol, command=cfg.command,
@@ -536,18 +514,18 @@ def render_withheld(blend, plan: dict, size, model, generic, ref_samples: int, o
 # ------------------------------------------------------------------------------------------------- bake
 
 def bake_views(work_blend, data_dir, plan: dict, size, ref_samples: int | None = FIT_REF_SAMPLES, log=None,
-               rest_samples: int = 0, one_render: int = 0, one_render_kind: str = "local") -> None:
+               rest_samples: int = 0, one_render: int = 0) -> None:
     """Bake every camera of ``work_blend`` at the plan's frames with the baker (``cli.py bake --scenes``), in
     a child process (the baker resumes a half-done folder). The baker stays in this process's group and dies
     with it (runtime/launcher.py), so cancelling the fit ends the baker too. ``rest_samples``: the views also
-    hold EEVEE's rest at that many samples (a fit that learns the rest). ``one_render``: a GI-off one-render bake
-    (``cli.py bake --gi-samples N --one-render local``, or ``one_render_kind``) at that many samples."""
+    hold EEVEE's rest at that many samples (a fit that learns the rest). ``one_render``: a one-render bake
+    (``cli.py bake --gi-samples N --one-render``) at that many samples."""
     from ..runtime import launcher
     cmd = launcher.cli_command("bake", "--scenes", str(work_blend), "--frames", ",".join(map(str, plan["frames"])),
                                "--size", f"{size[0]}x{size[1]}", "--out", str(data_dir))
     cmd += ["--ref-samples", str(ref_samples or FIT_REF_SAMPLES), "--denoise"]
     if one_render:
-        cmd += ["--gi-samples", str(int(one_render)), "--one-render", one_render_kind]
+        cmd += ["--gi-samples", str(int(one_render)), "--one-render"]
     elif rest_samples:
         cmd += ["--rest-samples", str(int(rest_samples))]
     (log or _stderr)(f"fit: baking {len(plan['cameras']) * len(plan['frames'])} views: {' '.join(cmd[1:])}")

@@ -227,8 +227,7 @@ class RenderSession:
         from ..blender import passes
 
         # (a shot's lightmap and reflection map read each pixel's own normal, where the geometric normals of a
-        # smooth-shaded mesh would show its polygons: with either, the frame keeps EEVEE's Normal pass;
-        # passes.NORMALS_FROM_DEPTH)
+        # smooth-shaded mesh would show its polygons: with either, the frame keeps EEVEE's Normal pass)
         normals = {"normals": "pass"} if self.lightmap is not None or self.reflmap is not None else {}
         groups = passes.render_gbuffer(self.scene, self.groups, samples=self.samples, rest_samples=self.samples,
                                        **(self.proxy_options | normals | self.pass_options))
@@ -290,9 +289,9 @@ class RenderSession:
                 info["t_pass_renders"] = dict(passes.last_timings)
                 # (the last pass render made without EEVEE's shadows: nothing in it casts one, passes.casts_no_shadow)
                 info["shadows_skipped"] = passes.last_render["shadows_skipped"]
-                # (its Emission pass left out: no material of the file can emit, passes.SKIP_EMPTY_EMISSION)
+                # (its Emission pass left out: no material of the file can emit, passes.render_rest)
                 info["emission_skipped"] = passes.last_render["emission_skipped"]
-                # (its normals from the Z pass, no Normal pass written: passes.NORMALS_FROM_DEPTH)
+                # (its normals from the Z pass, no Normal pass written: passes.render_gbuffer)
                 info["normals_from_depth"] = passes.last_render["normals_from_depth"]
                 info["t_passes"] = time.perf_counter() - t0
                 info["rss_mb_passes"] = peak_rss_mb()

@@ -55,9 +55,9 @@ REF_SEED_OFFSET = 104729  # the re-rendered reference uses the target's seed + t
 
 
 def _one_render_light(pred) -> str | None:
-    """The one-render group a one-render model reads (docs/one_render.md; passes.ONE_RENDER_MODES): eevee_diffuse
-    (ray tracing and fast GI on), eevee_local or eevee_combined (both off, emitter proxies); None for another model."""
-    return next((g for g in ch.required_groups(tuple(pred.spec)) if g in passes.ONE_RENDER_MODES), None)
+    """The one-render group a one-render model reads (docs/one_render.md; ch.ONE_RENDER_GROUPS): eevee_combined;
+    None for another model."""
+    return next((g for g in ch.required_groups(tuple(pred.spec)) if g in ch.ONE_RENDER_GROUPS), None)
 
 
 def _one_render(pred) -> bool:
@@ -236,8 +236,8 @@ class ReportRun:
     def _one_render_groups(self, scene, samples: int) -> tuple[dict, dict]:
         """({one-render group: every group the one-render models of that kind read, and what they are composed with
         (the rest, or a ref_combined model's Combined image)}, {one-render group: seconds of its render}): one
-        passes.render_gbuffer call per kind of one render (``_one_render_light``; ray tracing and fast GI on for
-        eevee_diffuse, off with emitter proxies otherwise), as the render path makes it (the proxies shadowed or
+        passes.render_gbuffer call per one-render group (``_one_render_light``; ray tracing and fast GI off, emitter
+        proxies on), as the render path makes it (the proxies shadowed or
         not, on the sides, as the models' bakes recorded; models of a kind that disagree get the defaults)."""
         kinds: dict[str, list] = {}
         for _, p in self._model_keys.values():
@@ -423,7 +423,7 @@ class ReportRun:
             gd = None
             if any(_diffuse_gbuffer(p) for _, p in self._model_keys.values()):
                 gd = es.gbuffer(scene, s.ssgi_samples, world=self._world, extra=self._extra)
-                gd["rest"] = passes.render_rest(scene, s.ssgi_samples, proxies=passes.REST_EMITTER_PROXIES)[0]
+                gd["rest"] = passes.render_rest(scene, s.ssgi_samples, proxies=True)[0]
             g1 = self._one_render_groups(scene, s.ssgi_samples)[0]
             for key, (path, pred) in self._model_keys.items():
                 gp = g1[_one_render_light(pred)] if _one_render(pred) else gd

@@ -1,4 +1,4 @@
-"""The rest render's emitter proxies (passes.REST_EMITTER_PROXIES, direct_light.emitter_proxies), on real Blender:
+"""The rest render's emitter proxies (passes.render_rest(proxies=True), direct_light.emitter_proxies), on real Blender:
 the artist test set's Cornell box lit only by an emissive ceiling panel, with a mirror ball, at 64x36. EEVEE lights nothing
 from an emissive mesh off screen, so its mirror ball reflected dark walls where Cycles' shows them lit; with an
 area light standing in for the panel during the rest render, the ball comes closer to Cycles'. The proxies are

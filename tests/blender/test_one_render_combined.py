@@ -1,7 +1,6 @@
 """GI-off one-render models that read the render's Combined image instead of its Diffuse Direct pass
-(docs/one_render.md). Such a frame is the same one EEVEE render as a ``local`` model's (ray tracing and
-fast GI off, the emitter proxies on) with one pass fewer: no Diffuse Direct, so no rest. ``cli.py fit --one-render
-combined`` bakes the views of that render with its Combined image (``eevee_combined``) and fits scratch networks with
+(docs/one_render.md). Such a frame is one EEVEE render (ray tracing and fast GI off, the emitter proxies on)
+without a Diffuse Direct pass, so no rest. ``cli.py fit --one-render`` bakes the views of that render with its Combined image (``eevee_combined``) and fits scratch networks with
 head ``residual_combined`` on target ``ref_combined``; the node composes EEVEE's image + the prediction. Real EEVEE and
 Cycles at tiny sizes."""
 from __future__ import annotations
@@ -53,42 +52,56 @@ def test_the_combined_one_render_writes_no_diffuse_direct_pass_and_gives_the_loc
     assert res["rt_after"] == [True, True], res
 
 
-def test_a_combined_one_render_fit_reads_the_combined_image_and_no_diffuse_direct():
-    from ssgi.model import channels as ch
-    from ssgi.model.errors import UserError
-    from ssgi.model.infer import lightmap
-    from ssgi.ssgi_addon.blender import views
-    from ssgi.ssgi_addon.pipeline import fit as pfit
-    from ssgi.ssgi_addon.pipeline.bake import one_render_bake_groups
-
-    ladder, _target, inputs = pfit.one_render_ladder(None, None, shot=True, kind="combined")
-    assert all(r[2]["head"] == "residual_combined" for r in ladder)
-    spec = ch.parse_spec(inputs)
-    baked = one_render_bake_groups("combined")
-    assert set(ch.required_groups(spec)) <= set(baked) and "eevee_local" not in spec, (spec, baked)
-    assert {"eevee_combined", "eevee_local", "rest", "gloss"} <= set(baked)  # (the fit's report and comparisons)
-    assert pfit.ONE_RENDER_FITS["combined"][2] == ch.COMBINED_TARGET
-    assert lightmap.known_for(ch.required_groups(spec)) == ()  # no known light: the field is the light it adds
-    # the default kind (it won on the withheld frames of all three shots), for the CLI, the config and
-    # the Fit panel alike
-    assert pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True).one_render_kind == "combined"
+def test_a_one_render_fit_reads_the_combined_image_and_no_diffuse_direct():
     import argparse
 
-    from ssgi.ssgi_addon.commands import fit as cfit
+    from ssgi.model import channels as ch
+    from ssgi.model.errors import UserError
+    from ssgi.model.evaluate.fit_report import SHOT_BAR_DB
+    from ssgi.model.infer import lightmap
+    from ssgi.model.learn.fit import LADDER
     from ssgi.ssgi_addon import props
+    from ssgi.ssgi_addon.blender import views
+    from ssgi.ssgi_addon.commands import bake as cbake, fit as cfit
+    from ssgi.ssgi_addon.pipeline import fit as pfit
+    from ssgi.ssgi_addon.pipeline.bake import ONE_RENDER_BAKE_GROUPS, BakeConfig
+
+    ladder, target, inputs = pfit.one_render_ladder(None, None, shot=True)
+    assert [r[0] for r in ladder] == [r[0] for r in LADDER] and all(r[2]["head"] == "residual_combined" for r in ladder)
+    assert all(r[2]["widths"] == l[2]["widths"] for r, l in zip(ladder, LADDER))  # the ladder's sizes are kept
+    assert target == SHOT_BAR_DB and pfit.one_render_ladder(None, 31.0, shot=True)[1] == 31.0
+    spec = ch.parse_spec(inputs)
+    assert set(ch.required_groups(spec)) <= set(ONE_RENDER_BAKE_GROUPS) and "eevee_local" not in spec, spec
+    assert not set(spec) & {"direct", "world", "direct_soft", "emit_direct", "lit", "scene"}, spec
+    # (the fit's report and comparisons, a shot's reflection map)
+    assert {"eevee_combined", "eevee_local", "rest", "gloss"} <= set(ONE_RENDER_BAKE_GROUPS)
+    assert lightmap.known_for(ch.required_groups(spec)) == ()  # no known light: the field is the light it adds
+    with pytest.raises(UserError, match="--learn-rest"):
+        pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True, learn_rest=True).check()
+    with pytest.raises(UserError, match="--data"):
+        pfit.FitSceneConfig(out="x.pt", data="views", one_render=True).check()
+    # --one-render is a plain flag of both commands, off by default in both; the Fit panel has no other choice
     ap = argparse.ArgumentParser()
-    cfit.register_cli(ap.add_subparsers())
-    assert ap.parse_args(["fit", "--out", "x.pt", "--one-render"]).one_render == "combined"
-    assert ap.parse_args(["fit", "--out", "x.pt", "--one-render", "local"]).one_render == "local"
-    assert ap.parse_args(["fit", "--out", "x.pt"]).one_render is None
-    kind = eval(props.SSGI_SceneSettings.__annotations__["fit_one_render_kind"], vars(props))  # (a deferred property)
-    assert kind.keywords["default"] == pfit.ONE_RENDER_DEFAULT
-    with pytest.raises(UserError, match="--one-render bogus"):
-        pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render="bogus").check()
-    # views of the two kinds are not the same views
-    plan = {"scene": "S", "frames": [1], "cameras": ["c"], "size": [8, 8], "seed": 0, "one_render": 2}
+    sub = ap.add_subparsers()
+    cfit.register_cli(sub)
+    cbake.register_cli(sub)
+    assert ap.parse_args(["fit", "--out", "x.pt", "--one-render"]).one_render is True
+    assert ap.parse_args(["fit", "--out", "x.pt"]).one_render is False
+    assert ap.parse_args(["bake", "--out", "d", "--gi-samples", "4", "--one-render"]).one_render is True
+    assert ap.parse_args(["bake", "--out", "d"]).one_render is False
+    with pytest.raises(SystemExit):
+        ap.parse_args(["fit", "--out", "x.pt", "--one-render", "local"])
+    assert "fit_one_render_kind" not in props.SSGI_SceneSettings.__annotations__
+    # a one-render bake needs its samples, and the samples need the flag
+    with pytest.raises(UserError, match="--gi-samples"):
+        BakeConfig(out="d", one_render=True).check()
+    with pytest.raises(UserError, match="--one-render"):
+        BakeConfig(out="d", gi_samples=4).check()
+    BakeConfig(out="d", gi_samples=4, one_render=True).check()
+    # views of a one render are not the views of another fit
+    plan = {"scene": "S", "frames": [1], "cameras": ["c"], "size": [8, 8], "seed": 0}
     blend = ROOT / "blender_manifest.toml"  # (any file: the tag hashes its bytes)
-    assert views.views_tag(blend, plan) != views.views_tag(blend, plan | {"one_render_kind": "combined"})
+    assert views.views_tag(blend, plan) != views.views_tag(blend, plan | {"one_render": 2, "one_render_kind": "combined"})
 
 
 NODE = r'''
@@ -115,7 +128,7 @@ print("RESULT", json.dumps({"renders": sorted(r["t_pass_renders"]), "groups": so
 
 @pytest.mark.timeout(1800)
 def test_a_combined_one_render_shot_fit_beats_eevee_and_the_node_renders_it_without_diffuse_direct(tmp_path):
-    blend, model, summary, ck = one_render_shot_fit(tmp_path, "combined")
+    blend, model, summary, ck = one_render_shot_fit(tmp_path)
     arch = ck["arch"]
     assert arch["head"] == "residual_combined" and arch["target"] == "ref_combined", arch
     assert {"albedo", "eevee_combined"} <= set(arch["inputs"]) and "eevee_local" not in arch["inputs"], arch

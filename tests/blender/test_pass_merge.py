@@ -10,7 +10,7 @@ import json
 
 from ..conftest import ROOT, run_py
 
-# the tiny scene under a gradient sky (also tests/blender/test_one_render.py)
+# the tiny scene under a gradient sky
 TINY_SKY_SCENE = r'''
 import json, sys
 import numpy as np
@@ -199,9 +199,8 @@ res["no_sun_shadow"] = passes.casts_no_shadow(sc)
 groups = ("albedo", "normal", "depth", "emission", "rest")
 out = {}
 for skip in (False, True):
-    passes.SKIP_UNUSED_SHADOWS = skip
     # (no emitter proxies: the render path's rest render stands shadowed area lights in for the tiny panel)
-    out[skip] = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2, proxies=False)
+    out[skip] = passes.render_gbuffer(sc, groups, samples=2, rest_samples=2, proxies=False, skip_unused_shadows=skip)
     res[f"skipped_{skip}"] = passes.last_render["shadows_skipped"]
     res[f"use_shadows_after_{skip}"] = ee.use_shadows
 res["max_abs"] = {g: float(np.abs(out[True][g] - out[False][g]).max()) for g in groups + ("beauty",)}
@@ -209,7 +208,6 @@ res["mean_beauty"] = float(out[True]["beauty"][..., :3].mean())
 for o in sc.objects:                                          # a lamp that casts a shadow: nothing is skipped
     if o.type == "LIGHT":
         o.data.use_shadow = True
-passes.SKIP_UNUSED_SHADOWS = True
 passes.render_gbuffer(sc, ("albedo", "rest"), samples=1, rest_samples=1, proxies=False)
 res["skipped_with_shadowed_lamp"] = passes.last_render["shadows_skipped"]
 print("RESULT", json.dumps(res))
@@ -217,7 +215,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_a_render_in_which_nothing_casts_a_shadow_skips_eevees_shadows_and_gives_the_same_image():
-    """passes.casts_no_shadow / SKIP_UNUSED_SHADOWS: the tiny scene's lamp casts a shadow; unshadowed, the
+    """passes.casts_no_shadow / render_gbuffer's skip_unused_shadows: the tiny scene's lamp casts a shadow; unshadowed, the
     gradient sky's extracted sun still may; with that off nothing can, and the render path's render is made with
     EEVEE's shadows off: every group and the image equal the shadows-on render's exactly, and the artist's setting
     is back afterwards. With the lamp's shadow back on, nothing is skipped."""
@@ -248,12 +246,10 @@ groups = ("albedo", "normal", "depth", "emission", "eevee_combined")
 out = {}
 sc.view_layers[0].use_pass_emit = True  # as compositor.setup_scene leaves it for a model that reads emission
 for skip in (True, False):
-    passes.SKIP_EMPTY_EMISSION = skip
-    g = passes.render_gbuffer(sc, groups)
+    g = passes.render_gbuffer(sc, groups, skip_empty_emission=skip)
     res[f"skipped_{skip}"] = passes.last_render["emission_skipped"]
     res[f"emit_flag_after_{skip}"] = sc.view_layers[0].use_pass_emit
     out[skip] = g
-passes.SKIP_EMPTY_EMISSION = True
 # the artist's compositor reads the Emission pass: it is written (the render path's stand-in is the render's file)
 tree = bpy.data.node_groups.new("comp", "CompositorNodeTree")
 sc.compositing_node_group = tree
@@ -319,7 +315,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_where_no_material_can_emit_the_render_path_leaves_the_emission_pass_out_and_gives_the_same_groups():
-    """passes.SKIP_EMPTY_EMISSION: in the artist test set's closed room (diffuse Principled materials, a
+    """render_gbuffer's skip_empty_emission: in the artist test set's closed room (diffuse Principled materials, a
     point lamp, a black world) no used material can emit (direct_light.materials_may_emit), so the one render
     leaves the Emission pass out: every group, the image and the zero emission equal those of the render that writes
     the pass (whose Emission is black to the bit), and the artist's pass flag is back afterwards. Emission Strength 0
@@ -387,7 +383,7 @@ print("RESULT", json.dumps(res))
 
 
 def test_a_one_render_frame_takes_its_normals_from_the_depth_and_they_are_the_passs_on_flat_surfaces():
-    """passes.NORMALS_FROM_DEPTH: a one-render model's frame writes no Normal pass (its flag, on as
+    """passes.render_gbuffer's normals: a one-render model's frame writes no Normal pass (its flag, on as
     setup_scene leaves it, is off for the render and back after it); its normals, from the Z pass, are unit length on
     geometry, zero where nothing was hit (the exterior's sky, where the Z pass holds the clip end), and agree with EEVEE's Normal pass (normals="pass", what a bake stores) to
     a median under 1 degree in the closed room (walls, a crate, a ball, a column); every other group is the same. A

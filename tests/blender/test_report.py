@@ -284,15 +284,13 @@ def test_report_button_runs_in_the_background_and_panel_shows_progress(e2e, tmp_
 
 @pytest.fixture(scope="module")
 def one_render_models(tmp_path_factory):
-    """Random-init one-render checkpoints of both kinds of one render: a GI-on model (eevee_diffuse, ray tracing and
-    fast GI on) and a GI-off ref_combined model (eevee_combined, both off, emitter proxies: `cli.py fit --one-render`'s
-    default kind)."""
+    """A random-init one-render checkpoint: a ref_combined model (eevee_combined, ray tracing and fast GI off, emitter
+    proxies: what `cli.py fit --one-render` makes)."""
     import torch
     from ssgi.model import channels as ch
     d = tmp_path_factory.mktemp("one_render_models")
     out = []
     for name, variant, inputs, target, over in (
-            ("gi", "unet_s_gi", "albedo,normal,depth,emission,eevee_diffuse,scene_gi,glow,surround", "ref_diffuse", {}),
             ("comb", "unet_s", "albedo,normal,depth,emission,eevee_combined,glow,surround", ch.COMBINED_TARGET,
              dict(head="residual_combined"))):
         torch.manual_seed(0)
@@ -302,17 +300,14 @@ def one_render_models(tmp_path_factory):
     return out
 
 
-def test_the_report_renders_one_render_models_of_both_kinds_each_from_its_own_one_render(e2e, one_render_models,
-                                                                                          tmp_path):
-    """A GI-off combined model (what `cli.py fit --one-render` makes) is scored beside a GI-on one-render model: each
-    from one EEVEE render of its own kind (no G-buffer renders), the two renders made apart (a combined model needs the G-buffer's eevee_combined, which only its own
-    kind of render gives)."""
+def test_the_report_renders_a_one_render_model_from_its_one_render(e2e, one_render_models, tmp_path):
+    """A one-render model (what `cli.py fit --one-render` makes) is scored from one EEVEE render (no G-buffer
+    renders)."""
     out = tmp_path / "rep"
     run_cli("report", "--data", str(e2e["out"] / "data"), "--split", "all", "--max-scenes", "1",
             "--models", *map(str, one_render_models), "--out", str(out), "--spp", "1", "--eevee-samples", "1",
             "--eevee-high-samples", "1", "--threads", "1", "--no-scaling", "--temporal-frames", "0", timeout=600)
     raw = json.loads((out / "report.json").read_text())
-    ts = {}
     for i, p in enumerate(one_render_models):
         m = raw["methods"][f"model_{i}_{p.stem}"]
         s = m["summary"]
@@ -321,5 +316,3 @@ def test_the_report_renders_one_render_models_of_both_kinds_each_from_its_own_on
         # one render gives every group: no G-buffer, the whole frame is that render + the prediction
         assert t["gbuffer_s"] == 0 and t["rest_s"] > 0, (p.stem, t)
         assert t["whole_s"] == pytest.approx(t["rest_s"] + t["predict_s"]), (p.stem, t)
-        ts[p.stem] = t["rest_s"]
-    assert ts["gi"] != ts["comb"], ts  # two renders, one of each kind

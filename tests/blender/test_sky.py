@@ -74,7 +74,7 @@ def test_a_one_render_bake_holds_the_sky_and_add_surround_fills_an_older_folder_
 
     d = tmp_path / "data"
     run_cli("bake", "--count", "1", "--seed", "5", "--size", "32x18", "--ref-samples", "2", "--gi-samples", "1",
-            "--one-render", "combined", "--mode", "artist", "--out", str(d))
+            "--one-render", "--mode", "artist", "--out", str(d))
     baked = exrio.read_sample(d / "000000.exr")
     geo = np.linalg.norm(baked["normal"], axis=-1) > 0.5
     assert baked["sky"].shape == (18, 32, 3) and baked["sky"][geo].mean() > 0.01  # an artist room has a sky

@@ -54,8 +54,6 @@ def groups(w: int, h: int, seed: int = 0, light: float = 1.0) -> dict[str, np.nd
     """Plausible G-buffer groups (HxWxC float32) of size w x h; ``light`` scales the direct light."""
     g = synthetic_groups(w, h, seed)
     g["direct"] = (g["direct"] * np.float32(light)).astype(np.float32)
-    # EEVEE's own diffuse light (the input of one-render models: docs/one_render.md): the direct light and more
-    g["eevee_diffuse"] = (g["direct"] * np.float32(1.25) + np.float32(0.05 * light)).astype(np.float32)
     return g
 
 

@@ -22,9 +22,6 @@ ALL_INPUTS = ("albedo", "normal", "depth", "direct", "ao", "lit")  # every input
 
 
 def _untrained(variant: str, spec=ch.DEFAULT_INPUTS, seed: int = 0, precision: str = "fp32-cl", **arch):
-    head = variants.VARIANTS[variant].get("head")
-    if head and any(g not in spec for g in network.HEAD_NEEDS.get(head, ())):  # one-render: reads eevee_diffuse
-        spec = tuple(g for g in spec if g not in ("direct", "lit")) + ("eevee_diffuse",)
     torch.manual_seed(seed)
     net = network.build(network.arch_for(variant, spec, **arch)).eval()
     return predictor.Predictor(net, checkpoint.make(net, "network", command="hard-cases"), precision=precision)

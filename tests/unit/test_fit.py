@@ -84,14 +84,14 @@ def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, o
 
 
 def test_droppable_respects_the_head():
-    # (eevee_diffuse, the one-render models' input, has no drop rank: never dropped; nor gloss)
+    # (eevee_combined, the one-render models' input, has no drop rank: never dropped; nor gloss)
     assert ablation.droppable(ch.INPUT_GROUPS, "residual") == ["direct_soft", "emit_direct", "world", "emission",
-                                                                "glow", "scene", "scene_comb", "scene_gi", "sky", "surround", "ao", "depth",
+                                                                "glow", "scene", "scene_comb", "sky", "surround", "ao", "depth",
                                                                 "normal", "lit"]
     assert ablation.droppable(ch.INPUT_GROUPS, "demod") == ["direct_soft", "emit_direct", "world", "emission", "glow",
-                                                             "scene", "scene_comb", "scene_gi", "sky", "surround", "ao", "depth", "normal",
+                                                             "scene", "scene_comb", "sky", "surround", "ao", "depth", "normal",
                                                              "lit", "direct"]
-    assert ablation.droppable(ch.INPUT_GROUPS, "residual_gi")[-1] == "direct"  # its head reads eevee_diffuse instead
+    assert ablation.droppable(ch.INPUT_GROUPS, "residual_combined")[-1] == "direct"  # its head reads eevee_combined
     assert ablation.droppable(("albedo", "direct"), "residual") == []
 
 

@@ -470,16 +470,12 @@ def test_settings_schema_writes_every_identity_key_and_one_entry_reads_folders(t
     with pytest.raises(UserError, match=r"baked with ref_samples=2 \(not ref_samples=3\)"):
         dataset.check_compatible({"settings": rooms}, dict(rooms, ref_samples=3), "here")
     # a one-render bake's render (its emitter proxies' sides) must agree too; the rest of eevee need not
-    one = dict(scenes, eevee={"world": "black", "one_render": {"kind": "local", "emitter_proxy_sides": "open"}})
-    old_one = dict(scenes, eevee={"world": "black", "one_render": {"kind": "local"}})
-    with pytest.raises(UserError, match=r"eevee.one_render=\{'kind': 'local'\} \(not"):
+    one = dict(scenes, eevee={"world": "black", "one_render": {"kind": "combined", "emitter_proxy_sides": "open"}})
+    old_one = dict(scenes, eevee={"world": "black", "one_render": {"kind": "combined"}})
+    with pytest.raises(UserError, match=r"eevee.one_render=\{'kind': 'combined'\} \(not"):
         dataset.check_compatible({"settings": old_one}, one, "here")
     dataset.check_compatible({"settings": one}, dict(one, eevee=dict(one["eevee"], world="grey")), "here")
     dataset.check_compatible({"settings": rooms}, dict(rooms, eevee={"world": "grey"}), "here")
-    # a GI-on one render has no proxies: a setting added since, None there, does not refuse its older bakes
-    gi_one = dict(scenes, eevee={"one_render": {"kind": "gi", "emitter_proxies": False}})
-    dataset.check_compatible({"settings": gi_one}, dict(scenes, eevee={"one_render": {
-        "kind": "gi", "emitter_proxies": False, "emitter_proxy_sides": None, "emitter_proxy_shadows": None}}), "here")
     d = synthetic.make_dataset(tmp_path / "d", scenes=2, per_scene=1, w=8, h=8)
     assert dataset.sample_path(d, "000001") == d / "000001.exr" and (d / "000001.exr").is_file()
     m = dataset.open_folder(d, scenes=True)

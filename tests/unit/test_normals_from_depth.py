@@ -1,5 +1,5 @@
 """model/images.normals_from_depth: the render path's camera-space normals from EEVEE's Z pass, where its
-one render writes no Normal pass (passes.NORMALS_FROM_DEPTH). Depth images made by intersecting each pixel's ray with
+one render writes no Normal pass (passes.render_gbuffer). Depth images made by intersecting each pixel's ray with
 known planes: the normals must be the planes' own, beside silhouettes too, and zero where nothing was hit."""
 from __future__ import annotations
 

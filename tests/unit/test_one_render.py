@@ -1,14 +1,17 @@
-"""One-render models (bpy-free) read EEVEE's own diffuse light (``eevee_diffuse``), its
-whole-image statistics (``scene_gi``) and a shading head that starts from it (``residual_gi``)."""
+"""One-render models (bpy-free): the whole-image statistics of a combined model (``scene_comb``), and the refusal of
+a bake manifest or a model of a one-render kind SSGI no longer has ('gi', which read ``eevee_diffuse``; 'local',
+which read ``eevee_local``)."""
 from __future__ import annotations
+
+import json
+import types
 
 import numpy as np
 import pytest
 
 from ssgi.model import channels as ch, normalize
+from ssgi.model.dataset import folder as dataset, synthetic
 from ssgi.model.errors import UserError
-
-SPEC = ("albedo", "normal", "depth", "emission", "eevee_diffuse", "scene_gi", "glow", "surround")
 
 
 def _groups(h=8, w=12, seed=0):
@@ -19,96 +22,8 @@ def _groups(h=8, w=12, seed=0):
     return {"albedo": r.uniform(0.05, 0.9, (h, w, 3)).astype(np.float32), "normal": n,
             "depth": r.uniform(1, 5, (h, w, 1)).astype(np.float32),
             "emission": np.zeros((h, w, 3), np.float32),
-            "eevee_diffuse": r.uniform(0, 3, (h, w, 3)).astype(np.float32),
             "direct": r.uniform(0, 3, (h, w, 3)).astype(np.float32),
             "surround": np.broadcast_to(r.uniform(0, 1, 12).astype(np.float32), (h, w, 12)).copy()}
-
-
-def test_scene_gi_is_scene_computed_from_eevees_own_diffuse_light_and_commutes_with_the_flip():
-    g = _groups()
-    gi = normalize.derived("scene_gi", g)
-    # the same statistics as "scene" with the direct light replaced by EEVEE's own diffuse light
-    same = normalize.derived("scene", dict(g, direct=g["eevee_diffuse"]))
-    assert gi.shape == (8, 12, 7) and np.array_equal(gi, same)
-    assert not np.allclose(gi, normalize.derived("scene", g))  # not the direct light's
-    flipped = {k: v[:, ::-1] for k, v in g.items()}
-    assert np.array_equal(normalize.derived("scene_gi", flipped), gi)
-    assert ch.required_groups(("scene_gi",)) == ("albedo", "eevee_diffuse", "normal")
-    assert ch.input_channels(SPEC) == 3 + 3 + 1 + 3 + 3 + 7 + 4 + 12
-    x, _ = normalize.to_inputs(g, SPEC)
-    lay = normalize.layout(SPEC)
-    assert np.allclose(x[..., lay["eevee_diffuse"]], np.log1p(g["eevee_diffuse"]))  # a light group: log1p
-
-
-def test_the_residual_gi_head_starts_from_eevees_own_diffuse_light_and_needs_it():
-    import torch
-
-    from ssgi.model.learn import network
-
-    net = network.build(network.arch_for("unet_s_gi", ",".join(SPEC), target="ref_diffuse"))
-    last = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)][-1]
-    with torch.no_grad():  # the network's own output 0: the head alone
-        last.weight.zero_()
-        last.bias.zero_()
-    g = _groups(16, 16)
-    x, _ = normalize.to_inputs(g, SPEC)
-    with torch.no_grad():
-        y = net(torch.from_numpy(x).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy()
-    # log1p(albedo x EEVEE's diffuse light): the diffuse part as EEVEE renders it
-    assert np.allclose(np.expm1(y), g["albedo"] * g["eevee_diffuse"], rtol=1e-4, atol=1e-5)
-    with pytest.raises(UserError, match="eevee_diffuse"):
-        network.build(network.arch_for("unet_s_gi", "albedo,normal,depth,direct", target="ref_diffuse"))
-    # the old residual head still starts from the hard direct light
-    old = network.build(network.arch_for("unet_s", "albedo,normal,depth,direct,eevee_diffuse", target="ref_diffuse"))
-    last = [m for m in old.modules() if isinstance(m, torch.nn.Conv2d)][-1]
-    with torch.no_grad():
-        last.weight.zero_()
-        last.bias.zero_()
-    spec2 = ("albedo", "normal", "depth", "direct", "eevee_diffuse")
-    x2, _ = normalize.to_inputs(g, spec2)
-    with torch.no_grad():
-        y2 = old(torch.from_numpy(x2).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy()
-    assert np.allclose(np.expm1(y2), g["albedo"] * g["direct"], rtol=1e-4, atol=1e-5)
-
-
-def test_eevee_diffuse_is_an_optional_stored_group_so_older_datasets_stay_whole():
-    assert "eevee_diffuse" in ch.SAMPLE_GROUPS and "eevee_diffuse" in ch.OPTIONAL_GROUPS
-    assert "eevee_diffuse" in ch.INPUT_GROUPS and "scene_gi" in ch.INPUT_GROUPS
-    assert ch.GROUPS["eevee_diffuse"].render_pass == "Diffuse Direct"
-    from ssgi.model.dataset import folder
-    old = {"channel_spec": [{"name": g, "channels": []} for g in ("albedo", "normal", "world")]}
-    assert "eevee_diffuse" not in folder.stored_groups(old)
-
-
-# ---- GI-off one-render models: eevee_local, head residual_local, the fit's ladder and the bake's groups
-
-LOCAL_SPEC = ("albedo", "normal", "depth", "emission", "eevee_local", "glow", "surround")
-
-
-def test_the_residual_local_head_starts_from_the_gi_off_renders_diffuse_light_and_needs_it():
-    import torch
-
-    from ssgi.model.learn import ablation, network
-
-    g = _groups(16, 16)
-    g["eevee_local"] = (0.5 * g["eevee_diffuse"]).astype(np.float32)
-    net = network.build(network.arch_for("unet", ",".join(LOCAL_SPEC), target="ref_diffuse", head="residual_local"))
-    last = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)][-1]
-    with torch.no_grad():  # the network's own output 0: the head alone
-        last.weight.zero_()
-        last.bias.zero_()
-    x, _ = normalize.to_inputs(g, LOCAL_SPEC)
-    with torch.no_grad():
-        y = net(torch.from_numpy(x).permute(2, 0, 1)[None])[0].permute(1, 2, 0).numpy()
-    # log1p(albedo x the GI-off render's diffuse light), not EEVEE's GI light nor the hard direct light
-    assert np.allclose(np.expm1(y), g["albedo"] * g["eevee_local"], rtol=1e-4, atol=1e-5)
-    with pytest.raises(UserError, match="eevee_local"):
-        network.build(network.arch_for("unet", "albedo,normal,depth,eevee_diffuse", target="ref_diffuse",
-                                       head="residual_local"))
-    # the fit never drops what the head reads
-    assert "eevee_local" not in ablation.droppable(LOCAL_SPEC, "residual_local")
-    assert "eevee_local" in ch.SAMPLE_GROUPS and "eevee_local" in ch.OPTIONAL_GROUPS and "eevee_local" in ch.INPUT_GROUPS
-    assert ch.GROUPS["eevee_local"].render_pass == "Diffuse Direct"
 
 
 def test_scene_comb_is_the_whole_frames_light_level_from_eevees_gi_off_image():
@@ -129,3 +44,68 @@ def test_scene_comb_is_the_whole_frames_light_level_from_eevees_gi_off_image():
     flipped = {k: v[:, ::-1] for k, v in g.items()}
     assert np.array_equal(normalize.derived("scene_comb", flipped), sc)
     assert ch.required_groups(("scene_comb",)) == ("albedo", "eevee_combined", "normal")
+
+
+def test_the_one_render_groups_are_the_combined_kinds_and_the_other_kinds_groups_are_no_input():
+    assert ch.ONE_RENDER_GROUPS == ("eevee_combined",)
+    assert ch.one_render(("albedo", "eevee_combined", "scene_comb")) and not ch.one_render(("albedo", "direct"))
+    # eevee_local is still what a one-render bake stores beside the Combined image, but no model reads it
+    assert "eevee_local" in ch.SAMPLE_GROUPS and "eevee_local" in ch.OPTIONAL_GROUPS
+    assert "eevee_local" not in ch.INPUT_GROUPS and "eevee_diffuse" not in ch.GROUPS
+    assert "scene_gi" not in ch.DERIVED
+    with pytest.raises(UserError, match="unknown input group 'eevee_diffuse'"):
+        ch.parse_spec("albedo,eevee_diffuse")
+
+
+@pytest.mark.parametrize("spec,kind", [(("albedo", "eevee_diffuse", "scene_gi"), "gi"), (("albedo", "scene_gi"), "gi"),
+                                       (("albedo", "normal", "eevee_local", "glow"), "local")])
+def test_a_model_of_a_gone_kind_is_refused_in_one_line_naming_what_to_use(spec, kind):
+    assert ch.gone_kind_of_model(spec) == kind
+    with pytest.raises(UserError) as e:
+        ch.refuse_gone_model(spec, "m.pt")
+    msg = str(e.value)
+    assert msg.startswith(f"m.pt: was made with the {kind!r} one-render kind, which SSGI no longer has; ")
+    assert "`cli.py fit --one-render`" in msg and "\n" not in msg
+    assert ch.gone_kind_of_model(("albedo", "eevee_combined", "scene_comb")) is None
+    ch.refuse_gone_model(("albedo", "normal", "depth", "direct"), "m.pt")
+
+
+def test_a_checkpoint_of_a_gone_kind_is_refused_when_it_is_loaded(tmp_path):
+    import torch
+
+    from ssgi.model.learn import checkpoint
+    path = tmp_path / "local.pt"
+    torch.save({"ssgi_checkpoint": checkpoint.CHECKPOINT_VERSION, "arch": {"variant": "unet_s", "head": "residual_local"},
+                "state_dict": {}, "inputs": ["albedo", "normal", "depth", "eevee_local", "glow"]}, path)
+    with pytest.raises(UserError, match=r"local.pt: was made with the 'local' one-render kind, which SSGI no longer "
+                                        r"has; fit a new one with `cli.py fit --one-render`"):
+        checkpoint.load(path)
+
+
+def test_an_onnx_export_of_a_gone_kind_is_refused_when_it_is_read():
+    from ssgi.model.infer import onnx as ort_backend
+    meta = {"ssgi_onnx": json.dumps(ort_backend.ONNX_VERSION), "inputs": json.dumps(["albedo", "eevee_diffuse"]),
+            "arch": json.dumps({}), "multiple": "8", "receptive_field": "45"}
+    sess = types.SimpleNamespace(get_modelmeta=lambda: types.SimpleNamespace(custom_metadata_map=meta))
+    with pytest.raises(UserError, match=r"gi.onnx: was made with the 'gi' one-render kind"):
+        ort_backend.read_meta(sess, "gi.onnx")
+
+
+@pytest.mark.parametrize("one,kind", [({"kind": "local", "gi_samples": 16}, "local"),
+                                      ({"kind": "gi", "gi_samples": 16, "raytracing": True}, "gi"),
+                                      ({"gi_samples": 16, "raytracing": True}, "gi"),  # (recorded no kind)
+                                      ({"gi_samples": 16, "raytracing": False}, "local"),
+                                      ({"kind": "combined", "gi_samples": 16, "raytracing": False}, None)])
+def test_a_bake_manifest_of_a_gone_kind_is_refused_in_one_line_naming_the_bake_to_make(tmp_path, one, kind):
+    d = synthetic.make_dataset(tmp_path / "d", scenes=1, per_scene=1, w=8, h=8)
+    m = json.loads((d / "manifest.json").read_text())
+    m["settings"]["eevee"] = {"one_render": one}
+    (d / "manifest.json").write_text(json.dumps(m))
+    assert ch.gone_kind_of_bake(m["settings"]) == kind
+    if kind is None:
+        assert dataset.open_folder(d)["settings"]["eevee"]["one_render"] == one
+        return
+    with pytest.raises(UserError) as e:
+        dataset.open_folder(d)
+    assert str(e.value) == (f"{d}: was baked with the {kind!r} one-render kind, which SSGI no longer has; "
+                            "re-bake with `cli.py bake --gi-samples N --one-render`")
