@@ -83,11 +83,27 @@ def with_rest(g: dict, seed: int, eevee_share: float = 0.3) -> dict:
     return g
 
 
+def with_shipped_inputs(g: dict, seed: int) -> dict:
+    """``with_emission`` and the other groups the shipped default model reads: softened direct light, the light of
+    emitters and the surround occupancy (random, in [0, 1])."""
+    g = with_emission(g, seed)
+    h, w = g["albedo"].shape[:2]
+    rs = np.random.default_rng(seed + 1)
+    g["direct_soft"] = (0.8 * g["direct"]).astype(np.float32)
+    g["emit_direct"] = (0.1 * g["emission"].max(-1, keepdims=True) * g["albedo"]).astype(np.float32)
+    g["surround"] = rs.uniform(0, 1, (h, w, 12)).astype(np.float32)
+    return g
+
+
+SHIPPED_GROUPS = ("emission", "ref_diffuse", "direct_soft", "emit_direct", "surround")
+
+
 def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int = 32, seed: int = 0,
-                 half: bool = False, emission: bool = False, rest: bool = False) -> Path:
+                 half: bool = False, emission: bool = False, rest: bool = False, shipped: bool = False) -> Path:
     """Write a synthetic dataset folder; returns its path. With ``emission``, the samples hold the groups of the
-    issue-14 bakes too (``with_emission``), so models trained on it learn the diffuse part; with ``rest`` also
-    EEVEE's rest, which misses part of Cycles' glossy light (``with_rest``)."""
+    diffuse-part bakes too (``with_emission``), so models trained on it learn the diffuse part; with ``rest`` also
+    EEVEE's rest, which misses part of Cycles' glossy light (``with_rest``); with ``shipped`` every group the shipped
+    default model reads (``with_shipped_inputs``)."""
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     samples = {}
@@ -97,12 +113,14 @@ def make_dataset(root, scenes: int = 4, per_scene: int = 2, w: int = 48, h: int 
             key = folder.sample_name(k)
             sd = seed * 100003 + k
             g = sample(w, h, sd, seed * 1009 + s)
-            g = with_rest(g, sd) if rest else with_emission(g, sd) if emission else g
+            g = (with_shipped_inputs(g, sd) if shipped else with_rest(g, sd) if rest else with_emission(g, sd)
+                 if emission else g)
             exrio.write_sample(folder.sample_path(root, key), g, half=half)
             samples[key] = dict(seed=sd, scene=f"synthetic-{seed}-{s}", camera=v, frame=1, timings={})
             k += 1
     m = folder.new_manifest(dict(size=[w, h], ref_samples=0, denoise=False, synthetic=True), "synthetic",
-                            groups=tuple(sample(2, 2, 0, 0)) + (("emission", "ref_diffuse") if emission or rest else ())
+                            groups=tuple(sample(2, 2, 0, 0)) + (SHIPPED_GROUPS if shipped else ("emission", "ref_diffuse")
+                                                                if emission or rest else ())
                             + (("rest",) if rest else ()))
     m["samples"] = samples
     folder.write_manifest(root, m)

@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import channels as ch
 from .. import normalize
+from ..learn import variants
 from ..errors import UserError
 
 OUTPUT_BOUND = 64.0  # a prediction never exceeds OUTPUT_BOUND * max(1, brightest input light value)
@@ -32,11 +33,12 @@ DEVICES = ("auto", "cpu", "cuda", "mps")
 
 def check_versions(meta: dict, path) -> None:
     """UserError unless ``meta`` (a checkpoint's plain data) was made for this SSGI's channel spec and
-    normalisation."""
+    normalisation, with a network variant it has."""
     fv, nv = meta.get("format_version"), (meta.get("normalization") or {}).get("version")
     if fv != ch.FORMAT_VERSION or nv != normalize.DESCRIPTION["version"]:
         raise UserError(f"{path}: model was trained on channel spec v{fv} with normalisation v{nv}; this SSGI reads "
                         f"v{ch.FORMAT_VERSION} with v{normalize.DESCRIPTION['version']}: retrain it or update SSGI")
+    variants.check_known(meta.get("arch"), path)
 
 
 def overlap(receptive_field: int, multiple: int) -> int:

@@ -1,7 +1,9 @@
 """The training settings (torch-free, so that the Blender UI and argparse read their defaults without torch).
 
 ``TrainConfig`` is what ``cli.py train``, the Train panel and ``model.learn.train.Trainer`` share; its field
-defaults are the defaults of all three. ``minutes`` None with ``epochs`` None trains ``DEFAULT_MINUTES``.
+defaults are the defaults of all three, and they are the recipe of the shipped default model
+(models/ssgi_default.json: variant, inputs, target, crop, batch, learning rate). ``minutes`` None with
+``epochs`` None trains ``DEFAULT_MINUTES``.
 """
 from __future__ import annotations
 
@@ -13,6 +15,10 @@ from ..errors import UserError
 from . import variants
 
 DEFAULT_MINUTES = 10.0
+# the input groups of the shipped default model
+SHIPPED_INPUTS = ("albedo", "normal", "depth", "direct", "direct_soft", "lit", "scene", "world", "emission",
+                  "emit_direct", "glow", "surround")
+ADAM_LR, SGD_LR = 5e-4, 1e-2  # the learning rate when none is given
 
 
 def data_dirs(data) -> list[str]:
@@ -25,16 +31,16 @@ class TrainConfig:
     data: str | list  # a dataset folder, or several that train together (data.load_folders)
     out: str
     variant: str = variants.DEFAULT
-    inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)
+    inputs: str = ch.format_spec(SHIPPED_INPUTS)
     arch: dict = field(default_factory=dict)  # overrides of the variant's settings, e.g. {"width": 32}
     minutes: float | None = None
     epochs: int | None = None
     resume: bool = False
     optimizer: str = "adam"
-    lr: float | None = None
+    lr: float | None = None  # None: ADAM_LR with adam, SGD_LR with sgd
     clip: float | None = None
-    batch: int = 16
-    crop: int = 64
+    batch: int = 8
+    crop: int = 128
     crops_per_image: int | None = None
     early_stop: int | None = None
     threads: int | None = None

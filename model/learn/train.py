@@ -24,7 +24,7 @@ sample cache (batches.py), the processes under torchrun and their collectives (d
   (data.Sample.mask; where nothing was hit the world shows, which no input describes): log1p compresses
   bright lights (1e3 -> 6.9) so they do not dominate, and is close to linear for the [0, 1] range the PSNR
   scores. Validation metrics (``validation.evaluate``) are pooled over the same pixels.
-- Optimizer: Adam (lr 1e-3) by default; ``sgd``: momentum 0.9, lr 1e-2, gradient-norm clipping at ``clip``
+- Optimizer: Adam (lr 5e-4) by default; ``sgd``: momentum 0.9, lr 1e-2, gradient-norm clipping at ``clip``
   (default 1.0 for SGD, none for Adam). The learning rate follows a cosine from lr to lr/20 over the
   budget (epochs, or minutes when no epoch count is given).
 - Checkpoints: after every epoch, ``MODEL.last.pt`` (weights + optimizer + RNG + step, for ``--resume``) is
@@ -57,7 +57,7 @@ import torch
 
 from .. import channels as ch
 from . import batches, checkpoint, curves, data, distributed, network
-from .config import DEFAULT_MINUTES, TrainConfig, data_dirs
+from .config import ADAM_LR, DEFAULT_MINUTES, SGD_LR, TrainConfig, data_dirs
 from .validation import evaluate, geometry
 from .. import files, normalize
 from ..errors import UserError
@@ -185,7 +185,7 @@ class Trainer:
         self.amp = cfg.amp if cfg.amp != "auto" else ("bf16" if self.device.type == "cuda" else "off")
         if self.device.type == "cuda":
             torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
-        lr = cfg.lr if cfg.lr is not None else (1e-3 if cfg.optimizer == "adam" else 1e-2)
+        lr = cfg.lr if cfg.lr is not None else (ADAM_LR if cfg.optimizer == "adam" else SGD_LR)
         self.base_lr = lr
         self.clip = cfg.clip if cfg.clip is not None else (1.0 if cfg.optimizer == "sgd" else None)
         if cfg.optimizer == "adam":

@@ -5,21 +5,27 @@
 """
 from __future__ import annotations
 
+from ..errors import UserError
+
 VARIANTS: dict[str, dict] = {
-    # the seed's network (Peng 2019), regressing log1p RGB
+    # the seed's network (Peng 2019), regressing log1p RGB: the reference point the others are measured against
     "fssgi": dict(backbone="fssgi", width=64, pre=4, post=3, head="log"),
-    # the seed's network with the residual-shading head
-    "fssgi_res": dict(backbone="fssgi", width=64, pre=4, post=3, head="residual"),
-    # a narrow, shallow fssgi
-    "lean": dict(backbone="fssgi", width=24, pre=3, post=2, head="residual"),
-    # encoder-decoders, small to large
+    # the shipped models' encoder-decoder (models/ssgi_default.json)
     "unet_s": dict(backbone="unet", widths=[12, 24, 32], convs=[1, 2, 2], head="residual"),
+    # a four-level encoder-decoder: the sizes of cli.py fit's ladder (model/learn/fit.py LADDER) override its
+    # widths and convs
     "unet": dict(backbone="unet", widths=[16, 32, 48, 64], convs=[1, 2, 2, 2], head="residual"),
-    "unet_l": dict(backbone="unet", widths=[24, 48, 64, 96], convs=[2, 2, 2, 3], head="residual"),
-    # one level deeper: receptive field 125 px (more of the room) for little extra cost
-    "unet_d": dict(backbone="unet", widths=[16, 32, 48, 64, 96], convs=[1, 2, 2, 2, 2], head="residual"),
     # the closed-form baseline (baseline.py); not trained by gradient descent
     "linear": dict(backbone="linear", space="linear"),
 }
-DEFAULT = "unet"
+DEFAULT = "unet_s"
 TRAINABLE = tuple(k for k, v in VARIANTS.items() if v["backbone"] != "linear")
+
+
+def check_known(arch: dict, path) -> None:
+    """UserError, in one line, when a model file's architecture names a variant this SSGI does not have (one
+    that earlier versions trained, such as lean or unet_l)."""
+    v = arch.get("variant") if isinstance(arch, dict) else None
+    if v is not None and v not in VARIANTS:
+        raise UserError(f"{path}: network variant {v!r} is no longer supported; retrain with `cli.py train` "
+                        f"(variant {DEFAULT}) or use a shipped model (default, one_render)")

@@ -112,38 +112,38 @@ def run_curves(args) -> dict:
 
 def register_cli(sub) -> None:
     from ...model.learn import variants
-    from ...model.learn.config import DEFAULT_MINUTES, TrainConfig as T
+    from ...model.learn.config import ADAM_LR, DEFAULT_MINUTES, SGD_LR, TrainConfig as T
 
     p = sub.add_parser("train", help="train a network on a baked dataset",
-                       description="Train a network on a dataset folder. MODEL is the best checkpoint so far "
+                       description="Train a network on a dataset folder; without options, the shipped default "
+                                   "model's network and recipe. MODEL is the best checkpoint so far "
                                    "(by validation PSNR); MODEL.last.pt beside it is the resume point; "
                                    "MODEL.curve.png the learning curve. Several processes or machines: "
-                                   "torchrun --nproc_per_node N cli.py train ... (--batch is the global batch; "
-                                   "see docs/training_distributed.md).")
+                                   "torchrun --nproc_per_node N cli.py train ... (--batch is the global batch).")
     p.add_argument("--data", required=True, nargs="+", metavar="DIR",
                    help="dataset folder (manifest.json + EXR samples); several train together, each split "
                         "into train/validation by its own scenes")
     p.add_argument("--out", required=True, metavar="MODEL", help="checkpoint to write (e.g. models/ssgi.pt)")
     p.add_argument("--variant", default=T.variant, choices=variants.TRAINABLE,
                    help=f"network variant (default {T.variant})")
-    p.add_argument("--arch", metavar="JSON", help='override variant settings, e.g. \'{"width": 32}\'')
+    p.add_argument("--arch", metavar="JSON", help='override variant settings, e.g. \'{"widths": [16, 32, 48]}\'')
     p.add_argument("--inputs", default=T.inputs, metavar="SPEC",
                    help="input groups, comma-separated (default: %(default)s)")
     p.add_argument("--init", metavar="M.pt", default=None, type=existing_file,
                    help="start from this checkpoint's weights, variant and architecture; inputs it lacks start at 0, "
                         "so training begins from exactly its predictions (e.g. the shipped model)")
-    p.add_argument("--target", choices=ch.TARGETS, default=None,
+    p.add_argument("--target", choices=ch.TARGETS, default=T.target,
                    help="what the network learns: ref_diffuse, the diffuse part of the Cycles image, which the render "
                         "path adds to EEVEE's own emission, reflections and glass (default when the dataset holds it), "
-                        "ref, the whole image (the first datasets), or ref_minus_rest, the Cycles image "
-                        "minus EEVEE's rest, composed as ref_diffuse (it also makes up for EEVEE's rest on "
-                        "diffuse-coloured surfaces; needs samples with rest, as a fit's views)")
+                        "ref, the whole image (datasets baked without ref_diffuse), or ref_combined, the Cycles image "
+                        "from EEVEE's GI-off Combined image (one-render models)")
     p.add_argument("--minutes", type=float,
                    help=f"time budget in minutes (default {DEFAULT_MINUTES:g} when --epochs is not given)")
     p.add_argument("--epochs", type=int, help="number of epochs")
     p.add_argument("--resume", action="store_true", help="continue from MODEL.last.pt (same steps, optimizer, RNG)")
     p.add_argument("--optimizer", default=T.optimizer, choices=("adam", "sgd"))
-    p.add_argument("--lr", type=float, help="learning rate (default 1e-3 adam, 1e-2 sgd)")
+    p.add_argument("--lr", type=float, default=T.lr,
+                   help=f"learning rate (default {ADAM_LR:g} with adam, {SGD_LR:g} with sgd)")
     p.add_argument("--clip", type=float, help="gradient-norm clipping (default 1.0 for sgd, off for adam)")
     p.add_argument("--batch", type=int, default=T.batch, help="crops per batch (default %(default)s)")
     p.add_argument("--crop", type=int, default=T.crop, help="crop size in pixels (default %(default)s)")

@@ -27,7 +27,7 @@ class BaselineConfig:
     """The per-pixel linear-regression baseline, fitted in closed form on the training split."""
     data: str  # dataset folder
     out: str  # checkpoint to write
-    inputs: str = TrainConfig.inputs
+    inputs: str = ch.format_spec(ch.DEFAULT_INPUTS)  # the seed's inputs
     space: str = "linear"  # regress linear RGB (the seed's) or "log" (log1p RGB)
     seed: int = TrainConfig.seed  # split seed: train's, so that both score the same validation scenes
     val_fraction: float = TrainConfig.val_fraction  # share of scenes for validation (train's)

@@ -47,7 +47,7 @@ def tiny_models(tmp_path_factory):
     import torch
     d = tmp_path_factory.mktemp("models")
     out = []
-    for v in ("unet_s", "lean", "unet", "linear"):
+    for v in ("unet_s", "unet", "fssgi", "linear"):
         torch.manual_seed(0)
         net = network.build(network.arch_for(v)).eval()
         checkpoint.save(d / f"{v}.pt", checkpoint.make(net, "linear" if v == "linear" else "network", command="test"))
@@ -108,8 +108,8 @@ def test_end_to_end_writes_all_four_outputs_with_finite_numbers(e2e):
     # the scenes reopened here are the ones the baker rendered
     assert all(v == "inf" or v > 40 for v in raw["gbuffer_agreement_db"].values())
     # params and FLOPs for the learned methods, in size order
-    params = [raw["methods"][f"model_{i}_{v}"]["params"] for i, v in enumerate(("unet_s", "lean", "unet"))]
-    assert params[2] > params[0] > params[1] > 0 and raw["methods"]["model_3_linear"]["params"] == 42
+    params = [raw["methods"][f"model_{i}_{v}"]["params"] for i, v in enumerate(("unet_s", "unet", "fssgi"))]
+    assert params[2] > params[1] > params[0] > 0 and raw["methods"]["model_3_linear"]["params"] == 42
     # scaling and temporal numbers
     sc = raw["scaling"]
     assert sc["sizes"] == ["64x36", "128x72"] and all(

@@ -3,7 +3,9 @@ dataset and baseline tests are tests/unit/test_train.py."""
 import json
 import math
 
-from ssgi.model.dataset import exrio
+import pytest
+
+from ssgi.model.dataset import exrio, synthetic
 from ssgi.model.learn import checkpoint
 
 from ..conftest import run_cli
@@ -14,7 +16,7 @@ from ..unit.test_train import dataset_dir  # noqa: F401  (a fixture)
 
 def test_cli_train_predict_and_user_errors(tmp_path, dataset_dir):
     m = tmp_path / "m.pt"
-    p = run_cli("train", "--data", str(dataset_dir), "--out", str(m), "--variant", "unet_s", "--epochs", "1",
+    p = run_cli("train", "--data", str(dataset_dir), "--out", str(m), "--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", "1",
                 "--crop", "16", "--batch", "4", "--quiet", "--json")
     d = json.loads(p.stdout)
     assert d["ok"] and d["epochs"] == 1 and math.isfinite(d["best"]["val_psnr"])
@@ -38,6 +40,13 @@ def test_cli_train_predict_and_user_errors(tmp_path, dataset_dir):
 
 
 # ---------------------------------------------------------------- Blender: Train operator, panel, status bar
+
+@pytest.fixture(scope="module")
+def shipped_dataset_dir(tmp_path_factory):
+    """A synthetic dataset holding every group the shipped default model (the Train operator's network) reads."""
+    return synthetic.make_dataset(tmp_path_factory.mktemp("syn-shipped"), scenes=5, per_scene=2, w=40, h=24, seed=7,
+                                  shipped=True)
+
 
 _BLENDER_TRAIN = r'''
 import json, sys, time
@@ -90,10 +99,10 @@ def _report(p) -> dict:
     return json.loads(next(l for l in p.stdout.splitlines() if l.startswith("REPORT"))[len("REPORT"):])
 
 
-def test_blender_train_operator_runs_in_background_and_panel_shows_progress(tmp_path, dataset_dir):
+def test_blender_train_operator_runs_in_background_and_panel_shows_progress(tmp_path, shipped_dataset_dir):
     from ..conftest import run_py
     out = tmp_path / "ui.pt"
-    rep = _report(run_py(_BLENDER_TRAIN, str(dataset_dir), str(out), "0.1", "run", timeout=300))
+    rep = _report(run_py(_BLENDER_TRAIN, str(shipped_dataset_dir), str(out), "0.1", "run", timeout=300))
     assert "dataset folder does not exist" in rep["missing_error"]
     assert rep["op"] == ["FINISHED"] and rep["poll_while_running"] is False
     assert rep["state"]["status"] == "done" and rep["result"]["status"] == "done"
@@ -107,10 +116,10 @@ def test_blender_train_operator_runs_in_background_and_panel_shows_progress(tmp_
     assert any(l.startswith("Done after epoch") and "dB" in l for l in rep["after"]["labels"])
 
 
-def test_blender_train_cancel_keeps_last_checkpoint(tmp_path, dataset_dir):
+def test_blender_train_cancel_keeps_last_checkpoint(tmp_path, shipped_dataset_dir):
     from ..conftest import run_py
     out = tmp_path / "ui.pt"
-    rep = _report(run_py(_BLENDER_TRAIN, str(dataset_dir), str(out), "5", "cancel", timeout=300))
+    rep = _report(run_py(_BLENDER_TRAIN, str(shipped_dataset_dir), str(out), "5", "cancel", timeout=300))
     assert rep["state"]["status"] == "cancelled" and rep["result"] is None
     last = checkpoint.load(checkpoint.last_path(out))
     assert last["train_state"]["epoch"] >= 1

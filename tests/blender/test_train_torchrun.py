@@ -24,7 +24,7 @@ PSNR_TOL_DB = 0.01
 
 
 def _args(ds, out, epochs, *more):
-    return ["--data", str(ds), "--out", str(out), "--variant", "unet_s", "--epochs", str(epochs), "--crop", "16",
+    return ["--data", str(ds), "--out", str(out), "--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", str(epochs), "--crop", "16",
             "--batch", "4", "--crops-per-image", "2", "--seed", "1", "--quiet", *more]
 
 
@@ -175,7 +175,7 @@ from ssgi.model.learn.train import TrainConfig, Trainer
 ds = data.DatasetFolder.load({data!r})
 victim = ds.subset(data.split_scenes(ds.scenes, 0.2, 1)[0])[0]
 victim.y[1].fill_(float("nan"))  # a broken sample in memory (the loader would have left it out)
-cfg = TrainConfig(data={data!r}, out={out!r}, variant="unet_s", epochs=2, crop=16, batch=4, crops_per_image=2, seed=1,
+cfg = TrainConfig(data={data!r}, out={out!r}, variant="unet_s", inputs="albedo,normal,depth,direct,lit", epochs=2, crop=16, batch=4, crops_per_image=2, seed=1,
                   threads=1, command="test")
 msgs = []
 res = Trainer(cfg, dataset=ds, log=msgs.append).run()

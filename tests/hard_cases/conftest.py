@@ -33,7 +33,8 @@ def syn_data(tmp_path_factory):
 
 
 def train_cfg(data, out, variant="unet_s", **kw) -> TrainConfig:
-    base = dict(data=str(data), out=str(out), variant=variant, arch=dict(MODELS.get(variant, {})), epochs=3,
+    base = dict(data=str(data), out=str(out), variant=variant, arch=dict(MODELS.get(variant, {})),
+                inputs="albedo,normal,depth,direct,lit", epochs=3,
                 crop=16, batch=4, crops_per_image=3, seed=0, lr=3e-3, threads=1, command="hard-cases")
     base.update(kw)
     return TrainConfig(**base)

@@ -102,7 +102,7 @@ def test_broken_sample_in_dataset_to_train(fault, dataset, tmp_path):
         msg = "unexpected channel(s) albedo.A"
     model = tmp_path / "models" / "m.pt"
     before = _existing(model)
-    p = run_cli("train", "--data", str(dataset), "--out", str(model), "--variant", "unet_s", "--epochs", "1",
+    p = run_cli("train", "--data", str(dataset), "--out", str(model), "--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", "1",
                 "--crop", "8", "--quiet", check=False)
     _user_error(p, f"{sample}: {msg}")
     _untouched(model, before)
@@ -209,7 +209,7 @@ def test_model_whose_spec_does_not_match_the_data(dataset, tmp_path):
 
     other = synthetic.make_dataset(tmp_path / "other", scenes=2, per_scene=1, w=16, h=12, seed=4)
     m2 = tmp_path / "m2.pt"
-    run_cli("train", "--data", str(other), "--out", str(m2), "--variant", "unet_s", "--epochs", "1", "--crop", "8",
+    run_cli("train", "--data", str(other), "--out", str(m2), "--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", "1", "--crop", "8",
             "--quiet")
     before = _existing(m2)
     last = checkpoint.last_path(m2)

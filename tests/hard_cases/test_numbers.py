@@ -128,7 +128,7 @@ def test_extreme_hdr_is_finite_and_within_the_output_bound(variant, precision, t
         assert out.max() > 1.0, light  # the light does come through: not a clamp to a small constant
 
 
-@pytest.mark.parametrize("variant", ["fssgi", "fssgi_res", "unet_s"])
+@pytest.mark.parametrize("variant", ["fssgi", "unet_s"])
 def test_runaway_network_is_held_at_the_output_bound(variant):
     """Case 2: even a network whose last layer outputs 1e3 (exp would overflow float32) gives at most
     OUTPUT_BOUND x max(1, brightest input light), and exactly that bound where it runs away."""

@@ -109,7 +109,7 @@ def test_poisoned_files_are_skipped_or_repaired_by_the_cli(syn_data, tmp_path):
     g["depth"][1, 1, 0] = np.nan
     exrio.write_sample(d / "000002.exr", g, half=False)
     out = tmp_path / "m.pt"
-    p = run_cli("train", "--data", str(d), "--out", str(out), "--variant", "unet_s", "--epochs", "1", "--crop",
+    p = run_cli("train", "--data", str(d), "--out", str(out), "--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", "1", "--crop",
                 "16", "--threads", "1", "--quiet", "--json")
     assert "skipped sample 000001: 1 non-finite reference pixel(s)" in p.stderr
     assert "repaired 2 non-finite input pixel(s)" in p.stderr
@@ -155,7 +155,7 @@ def test_constant_dataset_trains_without_nan(kind, tmp_path):
 # ------------------------------------------------------------------------------------------- cases 9, 10
 
 EPOCHS = 40  # ~50 ms each on an idle machine: a kill up to 1 s after epoch 1 lands mid-run
-TRAIN = ("--variant", "unet_s", "--epochs", str(EPOCHS), "--crop", "16", "--batch", "4", "--crops-per-image", "3",
+TRAIN = ("--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", str(EPOCHS), "--crop", "16", "--batch", "4", "--crops-per-image", "3",
          "--lr", "3e-3", "--seed", "3", "--threads", "1", "--quiet")
 
 

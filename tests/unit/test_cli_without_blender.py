@@ -65,7 +65,7 @@ def test_info_train_export_predict_merge_and_verify_run_without_blender(tmp_path
     assert v["ok"] and v["samples"] == 2 and v["problems"] == [], v
 
     model = tmp_path / "m.pt"
-    t = json.loads(_cli("train", "--data", str(data), "--out", str(model), "--variant", "unet_s", "--epochs", "1",
+    t = json.loads(_cli("train", "--data", str(data), "--out", str(model), "--variant", "unet_s", "--inputs", "albedo,normal,depth,direct,lit", "--epochs", "1",
                         "--crop", "32", "--batch", "2", "--quiet", "--json").stdout)
     assert t["ok"] and model.is_file(), t
     e = json.loads(_cli("export", "--model", str(model), "--json").stdout)

@@ -90,7 +90,7 @@ def test_init_grows_the_inputs_with_zero_weights_so_training_starts_from_the_giv
     from ssgi.model.learn import ablation, network
 
     torch.manual_seed(0)
-    for variant in ("unet_s", "fssgi_res"):
+    for variant in ("unet_s", "unet"):
         old = network.build(network.arch_for(variant, "albedo,normal,depth,direct,lit"))
         new = ablation.grow_inputs(old, "albedo,normal,depth,direct,emission,emit_direct,lit,glow", target="ref_diffuse")
         assert new.arch["target"] == "ref_diffuse" and network.target_of(old.arch) == "ref"

@@ -58,7 +58,7 @@ def fitted(tmp_path_factory, views, generic):
 
 # ------------------------------------------------------------------------------------------ bpy-free parts
 
-@pytest.mark.parametrize("variant,over", [("unet_s", {}), ("lean", {}), ("fssgi", {"width": 16})])
+@pytest.mark.parametrize("variant,over", [("unet_s", {}), ("fssgi", {"width": 16})])
 def test_drop_inputs_equals_the_old_network_with_those_inputs_at_zero(variant, over):
     torch.manual_seed(1)
     spec = ch.INPUT_GROUPS

@@ -22,7 +22,7 @@ def dataset_dir(tmp_path_factory):
 
 
 def _cfg(dataset_dir, out, **kw):
-    base = dict(data=str(dataset_dir), out=str(out), variant="unet_s", epochs=3, crop=16, batch=4,
+    base = dict(data=str(dataset_dir), out=str(out), variant="unet_s", inputs=ch.format_spec(ch.DEFAULT_INPUTS), epochs=3, crop=16, batch=4,
                 crops_per_image=2, seed=1, command="test")
     base.update(kw)
     return TrainConfig(**base)
@@ -235,3 +235,47 @@ def test_one_loader_serves_training_and_the_fit(dataset_dir):
         assert s.scene == t.scene and torch.equal(s.x, t.x) and torch.equal(s.y, t.y) and torch.equal(s.mask, t.mask)
     with pytest.raises(UserError, match=r"manifest\.json: lists no sample '999999'"):
         data.DatasetFolder.load(dataset_dir, spec, keys=["999999"])
+
+
+# ---------------------------------------------------------------- defaults and retired variants
+
+def test_train_without_options_trains_the_shipped_default_model(tmp_path):
+    """`cli.py train --data D --out M` parses to the recipe of models/ssgi_default.json (the crop, batch and
+    learning rate of its recipe's train command) and trains its network: variant, inputs, target, widths, convs, head and
+    parameter count of its ``arch``."""
+    import argparse
+
+    from ssgi.model import shipped
+    from ssgi.model.learn import config
+    from ssgi.ssgi_addon.commands import train as train_command
+
+    parser = argparse.ArgumentParser()
+    train_command.register_cli(parser.add_subparsers())
+    root = synthetic.make_dataset(tmp_path / "d", scenes=3, per_scene=1, w=40, h=24, shipped=True)
+    args = parser.parse_args(["train", "--data", str(root), "--out", str(tmp_path / "m.pt")])
+    desc = json.loads(shipped.DEFAULT.path.with_suffix(".json").read_text())
+    train = desc["recipe"]["train"]
+    recipe = {k: train[train.index(f"--{k}") + 1] for k in ("crop", "batch", "lr")}
+    assert (args.crop, args.batch) == (int(recipe["crop"]), int(recipe["batch"]))
+    assert args.lr is None and args.optimizer == "adam" and config.ADAM_LR == float(recipe["lr"])
+    assert (args.variant, args.inputs, args.arch, args.target) == (TrainConfig.variant, TrainConfig.inputs, None,
+                                                                   TrainConfig.target)
+    Trainer(TrainConfig(data=str(root), out=args.out, epochs=1, threads=1, command="test"), log=lambda m: None).run()
+    ck = checkpoint.load(args.out)
+    for k in ("variant", "inputs", "target", "backbone", "widths", "convs", "head"):
+        assert ck["arch"][k] == desc["arch"][k], k
+    assert ck["params"] == desc["params"]
+
+
+@pytest.mark.parametrize("variant", ["lean", "unet_l"])
+def test_checkpoint_of_a_retired_variant_is_refused_in_one_line(tmp_path, variant):
+    """A checkpoint whose variant this SSGI no longer has is a UserError that names it and what to use."""
+    net = network.build(network.arch_for("unet_s"))
+    ck = checkpoint.make(net, "model", command="test")
+    ck["arch"] = dict(ck["arch"], variant=variant)
+    path = tmp_path / "old.pt"
+    torch.save(ck, path)
+    with pytest.raises(UserError) as e:
+        predictor.load_predictor(path, runtime="torch")
+    msg = str(e.value)
+    assert "\n" not in msg and f"variant {variant!r} is no longer supported" in msg and "unet_s" in msg, msg

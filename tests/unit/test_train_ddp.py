@@ -16,7 +16,7 @@ def ds(tmp_path_factory):
 
 
 def _cfg(ds, out, epochs, **kw):
-    return TrainConfig(data=str(ds), out=str(out), variant="unet_s", epochs=epochs, crop=16, batch=4,
+    return TrainConfig(data=str(ds), out=str(out), variant="unet_s", inputs="albedo,normal,depth,direct,lit", epochs=epochs, crop=16, batch=4,
                        crops_per_image=2, seed=1, threads=1, command="test", **kw)
 
 
