@@ -40,6 +40,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import resource
 import subprocess
 import sys
 import time
@@ -47,13 +48,26 @@ from pathlib import Path
 
 import _bootstrap  # noqa: E402  (the checkout as package ssgi)
 from scenes import artist as A  # noqa: E402
-from pass_flags import cpu_s, optional_pass_flags  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ssgi.model import metrics  # noqa: E402
 from ssgi.model.images import WORLD_DEPTH_FRACTION  # noqa: E402
 from ssgi.model.cliargs import parse_size  # noqa: E402
 from ssgi.ssgi_addon.blender import passes  # noqa: E402
+
+
+def optional_pass_flags(view_layer) -> list[str]:
+    """The view layer's writable ``use_pass_*`` switches, Combined excepted (Combined is always written)."""
+    return [p.identifier for p in view_layer.bl_rna.properties if p.identifier.startswith("use_pass_")
+            and p.type == "BOOLEAN" and p.identifier != "use_pass_combined" and not p.is_readonly]
+
+
+def cpu_s() -> float:
+    """CPU seconds of this process so far, all threads: EEVEE's software GL (llvmpipe), the network and the
+    compositor run inside it, so the CPU seconds of a render are its work whatever else the machine runs at the
+    time, where its wall-clock seconds on a shared machine scatter by 15-40 %."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 VARIANTS: dict[str, dict] = {
     "before": dict(merge=False),

@@ -365,11 +365,11 @@ last_render = {"shadows_skipped": False, "emission_skipped": False, "normals_fro
 #   keeps the scene's own setting (skip_unused_shadows=False).
 # - render_rest leaves the Emission pass out where no used material of the file can write it
 #   (direct_light.materials_may_emit) and gives the emission group as zeros: the pass is black to the bit there, and
-#   on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 (benchmarks/pass_flags.py).
+#   on Mesa it cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5.
 # - a one-render frame (render_gbuffer's normals=None for a one-render model's groups) takes its normals from the Z
 #   pass (model/images.normals_from_depth: the geometric normals) instead of writing EEVEE's Normal pass. On Mesa the
 #   Normal pass cost the closed room's 960x540 GI-off render 0.9 CPU s of 22.5 alone and about 0.5 beside the Diffuse
-#   Color and Z passes, of the 4.1 that EEVEE's own GI costs there (benchmarks/pass_flags.py; the frame then came out
+#   Color and Z passes, of the 4.1 that EEVEE's own GI costs there (the frame then came out
 #   at 0.978x plain EEVEE GI, benchmarks/pass_cost.py); the two normals differ by a median 0.02-1.8 degrees on the
 #   artist test set, and the shipped one-render model scores 22.31 dB there at 320x180 with either (world pixels get
 #   a zero normal, as in the Normal pass: the clip end in _normals_from_depth; docs/one_render.md). Bakes keep the
