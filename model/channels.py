@@ -177,31 +177,38 @@ INPUT_GROUPS: tuple[str, ...] = ("albedo", "normal", "depth", "direct", "ao", "w
                                  "scene", "glow", "scene_comb")
 # What a model learns (its checkpoint's "target"): "ref", the whole Cycles image (the first models), or
 # "ref_diffuse", the diffuse part only, which the render path adds to EEVEE's own other components ("rest").
-# A third, "ref_minus_rest", is derived, not stored: the whole Cycles image minus EEVEE's rest (clamped at 0), what
-# a prediction + rest must be to equal Cycles' image. A model that learns it is composed as a ref_diffuse model
-# (prediction + rest) and can also correct EEVEE's rest where it differs from Cycles' on surfaces with a diffuse
-# colour (the glossy glow that default Principled walls take from an emissive lamp shade: docs/fit.md); where
-# the albedo is 0 (metal) its prediction stays 0 and EEVEE's rest stands. The per-shot fit's --learn-rest.
-# A fourth, "ref_combined" (GI-off one-render models without the Diffuse Direct pass): the whole Cycles
+# A third, "ref_combined" (GI-off one-render models without the Diffuse Direct pass): the whole Cycles
 # image, learned as EEVEE's GI-off Combined image (group eevee_combined) + albedo x the light it lacks (head
 # residual_combined); the model's prediction is that addition (signed: the network may also take light away where
 # EEVEE's is brighter), and the SSGI image is prediction + eevee_combined. No rest, no Diffuse Direct pass.
-TARGETS: tuple[str, ...] = ("ref", "ref_diffuse", "ref_minus_rest", "ref_combined")
+TARGETS: tuple[str, ...] = ("ref", "ref_diffuse", "ref_combined")
 TARGET_GROUP = "ref"  # the image every method is scored against, and the target of a checkpoint that names none
 DIFFUSE_TARGET = "ref_diffuse"
-REST_TARGET = "ref_minus_rest"
 COMBINED_TARGET = "ref_combined"
 # the albedo a ref_combined model's base light C / albedo is divided by at least (network.Head "residual_combined");
 # below it the shot's reflection map takes over from the network (reflmap.ReflectionMap.apply_combined)
 COMBINED_ALBEDO_FLOOR = 0.05
 # the stored groups each target is read from (the others are stored groups themselves)
-TARGET_SOURCES: dict[str, tuple[str, ...]] = {REST_TARGET: ("ref", "rest"), COMBINED_TARGET: ("ref", "eevee_combined")}
+TARGET_SOURCES: dict[str, tuple[str, ...]] = {COMBINED_TARGET: ("ref", "eevee_combined")}
+# targets SSGI no longer learns: {target: what its models learned}
+GONE_TARGETS: dict[str, str] = {"ref_minus_rest": "Cycles' image minus EEVEE's rest"}
+REFIT_GONE_TARGET = "fit it again with `cli.py fit`"
 
 
 def check_target(target: str) -> str:
+    if target in GONE_TARGETS:
+        raise UserError(f"target {target!r} ({GONE_TARGETS[target]}) is one SSGI no longer learns; {REFIT_GONE_TARGET}")
     if target not in TARGETS:
         raise UserError(f"unknown target {target!r}; known: {', '.join(TARGETS)}")
     return target
+
+
+def refuse_gone_target(arch, where) -> None:
+    """UserError when a model's ``arch`` (from ``where``) names a target SSGI no longer learns (``GONE_TARGETS``)."""
+    target = (arch or {}).get("target") if isinstance(arch, dict) else None
+    if target in GONE_TARGETS:
+        raise UserError(f"{where}: was fitted to learn {GONE_TARGETS[target]} (target {target!r}), which SSGI no "
+                        f"longer does; {REFIT_GONE_TARGET}")
 
 
 def target_groups(target: str) -> tuple[str, ...]:
@@ -211,16 +218,16 @@ def target_groups(target: str) -> tuple[str, ...]:
 
 def adds_rest(target: str) -> bool:
     """Whether the SSGI image of a model of ``target`` is its prediction + EEVEE's rest (model/infer/compose.py):
-    ref_diffuse and ref_minus_rest models; a ref model's prediction is the whole image."""
-    return check_target(target) in (DIFFUSE_TARGET, REST_TARGET)
+    ref_diffuse models; a ref model's prediction is the whole image."""
+    return check_target(target) == DIFFUSE_TARGET
 
 
 def base_group(target: str) -> str | None:
     """The EEVEE group a model's prediction is added to for the SSGI image (model/infer/compose.py): ``rest`` for
-    ref_diffuse and ref_minus_rest models, ``eevee_combined`` for ref_combined models, None for ref models (their
-    prediction is the whole image)."""
+    ref_diffuse models, ``eevee_combined`` for ref_combined models, None for ref models (their prediction is the
+    whole image)."""
     t = check_target(target)
-    return "rest" if t in (DIFFUSE_TARGET, REST_TARGET) else "eevee_combined" if t == COMBINED_TARGET else None
+    return "rest" if t == DIFFUSE_TARGET else "eevee_combined" if t == COMBINED_TARGET else None
 
 
 def signed_part(target: str) -> bool:

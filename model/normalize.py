@@ -216,16 +216,10 @@ def light_inverse(y):
 
 def target(groups: dict[str, np.ndarray], group: str = ch.TARGET_GROUP) -> np.ndarray:
     """The training target ``group`` (``channels.TARGETS``) as linear HDR RGB (HxWx3 float32); NOT repaired
-    (callers check). ``ref_minus_rest`` is built from ``ref`` and ``rest`` (a non-finite rest counts 0, the
-    difference is clamped at 0) unless ``groups`` holds it already (a repaired copy). ``ref_combined`` is the whole
-    image ``ref``: its network's output is the whole image (head residual_combined), the prediction the part it adds
-    to eevee_combined."""
+    (callers check). ``ref_combined`` is the whole image ``ref``: its network's output is the whole image (head
+    residual_combined), the prediction the part it adds to eevee_combined."""
     if group == ch.COMBINED_TARGET:
         group = ch.TARGET_GROUP
-    if group in ch.TARGET_SOURCES and group not in groups:
-        ref = np.asarray(groups["ref"], dtype=np.float32)[..., :3]
-        rest = np.nan_to_num(np.asarray(groups["rest"], dtype=np.float32)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
-        return np.maximum(ref - rest, 0.0)
     return np.asarray(groups[group], dtype=np.float32)[..., :3]
 
 

@@ -65,7 +65,6 @@ class SSGI_OT_fit_scene(StartsJob, bpy.types.Operator):
         ui_jobs.fit(scene, str(copy), str(out), views=int(s.fit_views), minutes=float(s.fit_minutes),
                     target_psnr=float(s.fit_target_psnr) or None,
                     extra_args=(("--frames", f"{frames[0]}-{frames[1]}") if frames else ())
-                    + (("--learn-rest",) if s.fit_learn_rest else ())
                     + (("--one-render",) if s.fit_one_render else ())
                     + (("--no-lightmap",) if frames and not s.fit_lightmap else ())
                     + (("--no-reflmap",) if frames and not s.fit_reflmap else ())).start()

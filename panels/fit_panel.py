@@ -22,7 +22,6 @@ class SSGI_PT_fit(JobPanel, bpy.types.Panel):
         row.prop(s, "fit_views")
         row.prop(s, "fit_minutes")
         col.prop(s, "fit_target_psnr")
-        col.prop(s, "fit_learn_rest")
         col.prop(s, "fit_one_render")
         col.prop(s, "fit_shot")
         if s.fit_shot:

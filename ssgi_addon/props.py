@@ -78,10 +78,6 @@ class SSGI_SceneSettings(bpy.types.PropertyGroup):
                                            description="First frame of the shot; 0: the scene's frame start")
     fit_frame_end: bpy.props.IntProperty(name="End", default=0, min=0,
                                          description="Last frame of the shot; 0: the scene's frame end")
-    fit_learn_rest: bpy.props.BoolProperty(name="Learn the Rest", default=False,
-                                           description="Learn Cycles' image minus EEVEE's rest, not only its diffuse "
-                                                       "part: the model also makes up for what EEVEE's reflections "
-                                                       "miss on surfaces with a diffuse colour (cli.py fit --learn-rest)")
     fit_one_render: bpy.props.BoolProperty(name="One Render (no EEVEE GI)", default=False,
                                            description="Fit a model whose frames are one EEVEE render with ray tracing "
                                                        "and fast GI off: the fitted network gives the GI, a frame costs "

@@ -54,8 +54,8 @@ def score(net, samples) -> dict:
 
 def score_node(net, views, keys) -> dict:
     """The views ``keys`` of ``views`` (data.StoredSamples) scored through Predictor.predict, i.e. what the
-    SSGI node shows (``score`` scores the raw network output): a model that adds EEVEE's rest (ref_diffuse,
-    ref_minus_rest) is composed with the view's rest when the view holds it (model/infer/compose.py), and
+    SSGI node shows (``score`` scores the raw network output): a model that adds EEVEE's rest (ref_diffuse) is
+    composed with the view's rest when the view holds it (model/infer/compose.py), and
     scored against Cycles' whole image. Pooled over the geometry pixels; SSIM with the reference pasted where
     nothing was hit, as ``evaluate`` does."""
     keys = views.keys(keys)

@@ -7,9 +7,6 @@ A model predicts its checkpoint's target (``Predictor.target``, ``channels.TARGE
   renders itself at the artist's settings: emission, the world seen directly, glossy and metal reflections,
   transmission, volumes. Where the prediction equals EEVEE's own diffuse part the image is EEVEE's own render
   exactly; nothing-hit pixels have no albedo, so the prediction is 0 there and the sky comes from ``rest``.
-- ``ref_minus_rest`` (a shot fit's --learn-rest): composed as ``ref_diffuse``; the model learned Cycles' image
-  minus EEVEE's rest, so its prediction also makes up for where EEVEE's rest falls short on diffuse-coloured
-  surfaces.
 - ``ref_combined`` (GI-off one-render models without the Diffuse Direct pass): the SSGI image is
   ``prediction + eevee_combined``, EEVEE's GI-off Combined image plus albedo x the light it lacks (signed: the
   prediction may take light away); albedo-0 pixels (metal, glass, sky) keep EEVEE's image.

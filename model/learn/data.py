@@ -252,14 +252,16 @@ def load_folders(roots, spec=ch.DEFAULT_INPUTS, progress=None, target: str | Non
 class StoredSamples:
     """The stored groups of some samples of a dataset folder, read once and kept, to build samples for many
     input specs (the fit's size search and input ablation) without reading the files again. ``raw``:
-    {key: {group: HxWxC}}, every stored input group plus normal, depth and the reference."""
+    {key: {group: HxWxC}}, every stored input group plus normal, depth, the reference and the EEVEE groups a
+    prediction is composed with (``channels.base_group``: the node's image that fit_report.score_node scores)."""
 
     def __init__(self, root, keys=None, log=None):
         self.root = Path(root)
         self.manifest = folder.open_folder(self.root, scenes=True)
         stored = folder.stored_groups(self.manifest)
+        composed = tuple(ch.base_group(t) for t in ch.TARGETS if ch.adds_part(t))
         groups = tuple(g for g in dict.fromkeys(_groups_for(ch.INPUT_GROUPS) + tuple(
-            s for t in ch.TARGETS for s in ch.target_groups(t))) if g in stored)
+            s for t in ch.TARGETS for s in ch.target_groups(t)) + composed) if g in stored)
         self.target = default_target(self.manifest)
         self.skipped: dict[str, str] = {}
         self.raw = {k: g for k, _scene, g in read_samples(self.root, self.manifest, groups, keys, skipped=self.skipped)}

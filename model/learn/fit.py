@@ -100,8 +100,7 @@ class FitConfig:
     bench_repeats: int = 5
     bench_size: str | None = "960x540"  # the final and the generic model are also timed at this size
     min_run_s: float = MIN_RUN_S  # a training run shorter than this is not started
-    # what the networks learn (channels.TARGETS; None: the views' default, ref_diffuse). "ref_minus_rest": Cycles'
-    # image minus EEVEE's rest, composed as ref_diffuse (cli.py fit --learn-rest)
+    # what the networks learn (channels.TARGETS; None: the views' default, ref_diffuse; ref_combined: a one-render fit)
     target: str | None = None
     command: str | None = None
 
@@ -122,10 +121,11 @@ class FitConfig:
         if self.inputs is not None:
             ch.parse_spec(self.inputs)
         if self.target is not None and not ch.adds_part(self.target):
-            raise UserError(f"fit target {self.target!r}: a fit learns ref_diffuse or ref_minus_rest (the node adds "
-                            "EEVEE's rest to either) or ref_combined (added to EEVEE's GI-off Combined image)")
+            raise UserError(f"fit target {self.target!r}: a fit learns ref_diffuse (the node adds EEVEE's rest to it) or "
+                            "ref_combined (added to EEVEE's GI-off Combined image)")
         if not self.ladder and not self.init:
-            raise UserError("--ladder is empty and there is no checkpoint to fine-tune (--init): nothing to train")
+            raise UserError("the size ladder is empty and there is no checkpoint to fine-tune (--init): nothing to "
+                            "train")
         for row in self.ladder:
             if len(row) != 3 or not isinstance(row[2], dict):
                 raise UserError(f"size ladder entry {row!r} is not (name, variant, overrides)")

@@ -5,7 +5,7 @@
 1. **Points.** Every geometry pixel of the training views whose albedo exceeds ``lightmap.ALBEDO_MIN`` in every
    channel gives a world position and normal (``lightmap.world_points`` with the view's camera matrices, which the
    fit stores in ``cameras.json`` beside the views) and a diffuse light: the fit's target (Cycles' diffuse part, or
-   Cycles minus EEVEE's rest with --learn-rest) divided by the albedo.
+   for a one-render model the light it adds to EEVEE's GI-off image) divided by the albedo.
 2. **Training.** An MLP (``HIDDEN`` wide, ``LAYERS`` hidden layers, ReLU) on ``lightmap.encode``'s features, Adam,
    batches of ``BATCH`` random points, the relative L1 loss |y' - y| / (1 + y), the learning rate on a cosine over
    the time budget. Bounded by ``seconds``; nothing else runs meanwhile.
@@ -46,10 +46,8 @@ MIN_POINTS = 1000
 
 
 def view_target(groups: dict, target: str) -> np.ndarray:
-    """The fit's target of a view (channels.TARGET_SOURCES: ref_minus_rest = max(ref - rest, 0); ref_combined =
-    ref - eevee_combined, signed: what that model's prediction adds to EEVEE's GI-off image)."""
-    if target == ch.REST_TARGET:
-        return np.maximum(groups["ref"][..., :3] - groups["rest"][..., :3], 0.0)
+    """The fit's target of a view (channels.TARGET_SOURCES: ref_combined = ref - eevee_combined, signed: what that
+    model's prediction adds to EEVEE's GI-off image)."""
     if target == ch.COMBINED_TARGET:
         return groups["ref"][..., :3] - groups["eevee_combined"][..., :3]
     return groups[target][..., :3]

@@ -89,8 +89,8 @@ def register_cli(sub) -> None:
                         "direct or emitter renders (docs/one_render.md)")
     p.add_argument("--rest-samples", type=cliargs.nonnegative_int, default=0, metavar="N",
                    help="the samples also hold EEVEE's rest (all it renders besides diffuse light) of the scene at its "
-                        "own settings at N samples, as the node renders it: what a fit that learns the rest "
-                        "(cli.py fit --learn-rest) subtracts from Cycles' image (default 0: no rest)")
+                        "own settings at N samples, as the node renders it, and its Glossy Color: what a shot fit's "
+                        "reflection map corrects (default 0: no rest)")
     p.add_argument("--shard", type=cliargs.parse_shard, default=None, metavar="i/n",
                    help="bake only samples i, i+n, ... (0-based) into a shard manifest; join with `merge`")
     p.add_argument("--scenes", nargs="+", metavar="FILE.blend", help="bake these scenes' cameras instead of rooms")

@@ -10,11 +10,9 @@ views baked before (roles from ``--plan``). ``--progress`` writes JSON progress 
 """
 from __future__ import annotations
 
-import json
 import re
 
 from ...model import cliargs
-from ...model.errors import UserError
 from ..pipeline.fit import FitSceneConfig
 from . import command_line, progress_sink
 
@@ -30,10 +28,9 @@ def config(args) -> FitSceneConfig:
     return FitSceneConfig(out=args.out, blend=args.blend, data=args.data, plan=args.plan, scene=args.scene,
                           views=args.views, minutes=args.minutes, target_psnr=args.target_psnr, size=args.size,
                           init=args.init, also_init=_also(args.also_init), drop_tol=args.drop_tol, ref_samples=args.ref_samples,
-                          ladder=_ladder(args.ladder) if args.ladder else None, crop=args.crop, batch=args.batch,
+                          crop=args.crop, batch=args.batch,
                           min_run_s=args.min_run_seconds, threads=args.threads, seed=args.seed,
-                          frames=args.frames, learn_rest=args.learn_rest,
-                          rest_samples=args.rest_samples, lightmap=not args.no_lightmap,
+                          frames=args.frames, rest_samples=args.rest_samples, lightmap=not args.no_lightmap,
                           reflmap=not args.no_reflmap, one_render=args.one_render,
                           command=command_line())
 
@@ -58,15 +55,6 @@ def shot_range(text: str) -> tuple[int, int]:
     if b < a:
         raise cliargs.ArgError(f"{text!r}: the shot ends before it starts ({b} < {a})")
     return a, b
-
-
-def _ladder(text: str) -> list:
-    try:
-        v = json.loads(text)
-        assert isinstance(v, list) and all(isinstance(r, list) and len(r) == 3 for r in v)
-        return v
-    except (ValueError, AssertionError):
-        raise UserError(f"--ladder must be a JSON list of [name, variant, {{overrides}}], got {text!r}") from None
 
 
 def register_cli(sub) -> None:
@@ -104,7 +92,6 @@ def register_cli(sub) -> None:
                    help="Cycles samples of the views' references, denoised with OIDN (default %(default)s)")
     p.add_argument("--data", default=None, metavar="DIR", help="fit views baked before instead of baking --blend")
     p.add_argument("--plan", default=None, metavar="JSON", help="with --data: the views_plan.json of that bake")
-    p.add_argument("--ladder", default=None, metavar="JSON", help='sizes to try, e.g. \'[["xs", "unet", {"widths": [8, 12, 16], "convs": [1, 1, 1]}]]\'')
     p.add_argument("--crop", type=cliargs.positive_int, default=None, help="training crop size (default 64)")
     p.add_argument("--batch", type=cliargs.positive_int, default=None, help="training batch (default 16)")
     p.add_argument("--min-run-seconds", type=cliargs.positive_float, default=None, metavar="S",
@@ -116,13 +103,10 @@ def register_cli(sub) -> None:
                         "its views hold no EEVEE rest for it")
     p.add_argument("--no-lightmap", action="store_true",
                    help="a shot fit (--frames) fits no lightmap beside the model (model/infer/lightmap.py)")
-    p.add_argument("--learn-rest", action="store_true",
-                   help="learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: "
-                        "the model also makes up for what EEVEE's reflections miss on surfaces with a diffuse colour "
-                        "(e.g. the glossy glow of an emissive lamp on default Principled walls); metal stays EEVEE's")
     p.add_argument("--rest-samples", type=cliargs.positive_int, default=None, metavar="N",
-                   help="with --learn-rest, or a shot fit's reflection map: EEVEE samples of the views' rest "
-                        "(default: the scene's own, as the node renders it; fewer make the bake cheaper)")
+                   help="a shot fit's EEVEE samples of the views' rest, which its reflection map corrects (with "
+                        "--one-render: of the one render; default: the scene's own, as the node renders it; fewer make "
+                        "the bake cheaper)")
     p.add_argument("--one-render", action="store_true",
                    help="fit a one-render model: each frame of the node is then ONE EEVEE render with ray tracing and "
                         "fast GI off (the network and the shot's lightmap give the GI), at about the cost of EEVEE's "

@@ -63,17 +63,16 @@ FIT_START_MODEL = Path(__file__).resolve().parents[2] / "models" / "ssgi_fit_sta
 
 def shot_defaults(cfg, init, shot: bool) -> tuple[list | None, float | None]:
     """(ladder, target PSNR) of a fit. A shot fit (``--frames``) with a starting checkpoint fine-tunes only that
-    checkpoint (ladder ``[]``) towards the shot bar (``fit_report.SHOT_BAR_DB``) unless ``--ladder`` /
-    ``--target-psnr`` say otherwise: on the room shot, same 21 baked views and ~10.7 min of training, the default
-    ladder (three scratch networks and the fine-tune sharing half the budget, the fine-tune 42 s; a scratch network
-    kept) scored 31.41 dB on the withheld frames, the fine-tune alone (301 s) 32.72 dB (docs/fit.md). Still scenes keep the ladder
-    (smaller scratch networks predict 2-4x faster there, docs/fit.md). ``(None, None)``: the model's defaults."""
+    checkpoint (ladder ``[]``) towards the shot bar (``fit_report.SHOT_BAR_DB``) unless ``--target-psnr`` says
+    otherwise: on the room shot, same 21 baked views and ~10.7 min of training, the scratch ladder (three scratch
+    networks and the fine-tune sharing half the budget, the fine-tune 42 s; a scratch network kept) scored 31.41 dB
+    on the withheld frames, the fine-tune alone (301 s) 32.72 dB. Still scenes, and a shot with nothing to
+    fine-tune, search model.learn.fit.LADDER (smaller scratch networks predict 2-4x faster there, docs/fit.md):
+    ladder None."""
     from ...model.evaluate.fit_report import SHOT_BAR_DB
-    ladder, target = cfg.ladder, cfg.target_psnr
     if shot and init:
-        ladder = [] if ladder is None else ladder
-        target = SHOT_BAR_DB if target is None else target
-    return ladder, target
+        return [], (SHOT_BAR_DB if cfg.target_psnr is None else cfg.target_psnr)
+    return None, cfg.target_psnr
 
 
 # what a one-render fit's scratch networks read: every group of the one render (passes.ONE_RENDER_SETTINGS) but its
@@ -84,14 +83,13 @@ ONE_RENDER_INPUTS = "albedo,normal,depth,emission,eevee_combined,glow,surround"
 ONE_RENDER_HEAD = "residual_combined"
 
 
-def one_render_ladder(ladder, target, shot: bool) -> tuple[list, float | None, str]:
-    """(ladder, target PSNR, inputs) of a one-render fit: ``ladder`` (None: model.learn.fit.LADDER) with head
+def one_render_ladder(target, shot: bool) -> tuple[list, float | None, str]:
+    """(ladder, target PSNR, inputs) of a one-render fit: model.learn.fit.LADDER's scratch networks with head
     ONE_RENDER_HEAD, which starts from the one render's own image, on ONE_RENDER_INPUTS; a shot aims at the shot bar
     (fit_report.SHOT_BAR_DB) unless ``target`` says otherwise."""
     from ...model.evaluate.fit_report import SHOT_BAR_DB
     from ...model.learn.fit import LADDER
-    rows = [list(r) for r in (LADDER if not ladder else ladder)]
-    rows = [[n, v, dict(o or {}, head=ONE_RENDER_HEAD)] for n, v, o in rows]
+    rows = [[n, v, dict(o or {}, head=ONE_RENDER_HEAD)] for n, v, o in LADDER]
     return rows, (SHOT_BAR_DB if target is None and shot else target), ONE_RENDER_INPUTS
 
 
@@ -124,18 +122,14 @@ class FitSceneConfig:
     also_init: list | None = None
     drop_tol: float = 0.1  # drop an input pass when the val PSNR without it is at most this much lower (dB)
     ref_samples: int = FIT_REF_SAMPLES  # Cycles samples of the views' references (+ OIDN)
-    ladder: list | None = None  # [[name, variant, {overrides}], ...] (None: model.learn.fit.LADDER)
     crop: int | None = None  # training crop (None: FitConfig's)
     batch: int | None = None  # training batch (None: FitConfig's)
     min_run_s: float | None = None  # shortest training run worth starting (None: FitConfig's)
     threads: int | None = None  # torch threads
     seed: int = 0
     frames: tuple[int, int] | None = None  # a shot A..B: withhold whole frames for the test (module doc)
-    # learn Cycles' image minus EEVEE's rest (target ref_minus_rest) instead of Cycles' diffuse part: the fitted
-    # model also makes up for EEVEE's rest on diffuse-coloured surfaces (docs/fit.md, "Learning the rest")
-    learn_rest: bool = False
-    # with learn_rest or a shot's reflection map: the samples of the views' rest (None: the scene's own EEVEE samples,
-    # as the node renders it; fewer make the bake cheaper, docs/fit.md)
+    # a shot fit's samples of the views' rest, which its reflection map corrects (a one-render fit: of its one render;
+    # None: the scene's own EEVEE samples, as the node renders it; fewer make the bake cheaper)
     rest_samples: int | None = None
     # a shot fit also fits a lightmap (model/infer/lightmap.py) beside the model, when its views allow (off: --no-lightmap)
     lightmap: bool = True
@@ -151,9 +145,6 @@ class FitSceneConfig:
 
     def check(self) -> None:
         """UserError naming the setting, before any work (nothing is written)."""
-        if self.one_render and self.learn_rest:
-            raise UserError("--one-render and --learn-rest: a one-render model learns Cycles' diffuse part beside the "
-                            "one render's rest; give one of them")
         if self.one_render and self.data:
             raise UserError("--one-render bakes its own views (--blend FILE): views baked before (--data) hold other "
                             "passes")
@@ -170,10 +161,9 @@ class FitSceneConfig:
             raise UserError(f"--minutes must be > 0 (got {self.minutes})")
         if self.ref_samples < 1:
             raise UserError(f"--ref-samples {self.ref_samples}: must be positive")
-        if self.rest_samples is not None and (not (self.learn_rest or (self.reflmap and self.frames))
-                                              or self.rest_samples < 1):
-            raise UserError(f"--rest-samples {self.rest_samples}: give a positive count, with --learn-rest or a shot "
-                            "fit's reflection map (only those bake the rest)")
+        if self.rest_samples is not None and (not (self.reflmap and self.frames) or self.rest_samples < 1):
+            raise UserError(f"--rest-samples {self.rest_samples}: give a positive count, with a shot fit (--frames) "
+                            "and its reflection map (only those bake the rest)")
         fault = cliargs.model_file_fault(self.init) if self.init else None
         if fault:  # before any baking
             raise UserError(f"--init {self.init}: {fault}")
@@ -188,9 +178,6 @@ class FitSceneConfig:
             check_shot(int(self.frames[0]), int(self.frames[1]))
         if isinstance(self.plan, str) and not Path(self.plan).is_file():
             raise UserError(f"--plan {self.plan}: no such file")
-        if self.ladder is not None and not (isinstance(self.ladder, list) and all(
-                isinstance(r, (list, tuple)) and len(r) == 3 for r in self.ladder)):
-            raise UserError(f"--ladder must be a JSON list of [name, variant, {{overrides}}], got {self.ladder!r}")
 
 
 def work_dir(out) -> Path:
@@ -238,9 +225,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
             plan["proxy_shadows"] = ONE_RENDER_SETTINGS["proxy_shadows"]
             plan["proxy_sides"] = ONE_RENDER_SETTINGS["proxy_sides"]
             plan["glossy"] = bool(has_glossy(scene))
-        elif cfg.learn_rest:  # the views hold EEVEE's rest as the node renders it: at the scene's own samples
-            plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
-        elif cfg.reflmap and plan.get("test_frames") and has_glossy(scene):  # (and its Glossy Color: reflmap)
+        elif cfg.reflmap and plan.get("test_frames") and has_glossy(scene):
+            # the views hold EEVEE's rest as the node renders it (at the scene's own samples) and its Glossy Color
             plan["rest_samples"] = int(cfg.rest_samples or scene.eevee.taa_render_samples)
         work.mkdir(parents=True, exist_ok=True)
         # views of THIS file with THESE settings: an edited scene gets new views, an unchanged one resumes
@@ -267,9 +253,8 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
     floor = max(0.1 * 60.0 * cfg.minutes, 60.0 * MIN_FIT_MINUTES)  # a bake that ate the budget still gets a fit
     fit_minutes = max(left, floor) / 60.0
     lightmap_s = min(LIGHTMAP_MAX_S, LIGHTMAP_SHARE * 60.0 * fit_minutes) if cameras else 0.0
-    # (not with --learn-rest: that model learns Cycles minus EEVEE's own rest, which a corrected rest would count twice)
     # (a ref_combined model's corrects EEVEE's GI-off image only where the albedo is black: reflmap.apply_combined)
-    glossy = (bool(cameras) and cfg.reflmap and not cfg.learn_rest and plan.get("glossy", True)
+    glossy = (bool(cameras) and cfg.reflmap and plan.get("glossy", True)
               and "gloss" in dataset_folder.stored_groups(dataset_folder.open_folder(data_dir)))
     reflmap_s = min(REFLMAP_MAX_S, REFLMAP_SHARE * 60.0 * fit_minutes) if glossy else 0.0
     fit_minutes -= (lightmap_s + reflmap_s) / 60.0
@@ -278,10 +263,9 @@ def run(cfg: FitSceneConfig, progress=None, should_stop=None, log=None) -> dict:
             "(the whole fit will run over the budget)")
     ladder, target = shot_defaults(cfg, init, bool(withheld))
     also = starts_to_probe(cfg, init, bool(withheld)) if not cfg.one_render else list(cfg.also_init or ())
-    inputs = None
-    learn = ch.REST_TARGET if cfg.learn_rest else None
+    inputs = learn = None
     if cfg.one_render:
-        ladder, target, inputs = one_render_ladder(ladder, target, bool(withheld))
+        ladder, target, inputs = one_render_ladder(target, bool(withheld))
         learn = ch.COMBINED_TARGET
     mcfg = mfit.FitConfig(data=str(data_dir), out=str(out), train_keys=train, val_keys=val, test_keys=test,
                           minutes=fit_minutes, target_psnr=target, init=init, threads=cfg.threads,

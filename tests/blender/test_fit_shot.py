@@ -1,9 +1,9 @@
 """Fit a shot on real Blender: the plan withholds whole frames, the bake keeps away from
 them, a tiny fit scores exactly those frames as the node renders them, and bad frame ranges are one-line
 errors. The shot is scenes/shots.py's "ripple" (a moving camera, a moving cube, a Wave and a Simple
-Deform modifier) at 64x36 over 20 frames, EEVEE at 1 sample. The module's fit learns the rest (--learn-rest): its
-views hold EEVEE's rest and the model learns Cycles' image minus it (the still-scene fits of test_fit.py learn the
-diffuse part)."""
+Deform modifier) at 64x36 over 20 frames, EEVEE at 1 sample. The module's fit is the one a user runs: its model
+learns Cycles' diffuse part, and the shot's Principled materials are rough, so its views hold no EEVEE rest and it
+fits no reflection map (tests/blender/test_reflmap.py fits a glossy shot)."""
 from __future__ import annotations
 
 import json
@@ -57,7 +57,7 @@ def shot_fit(tmp_path_factory, generic):
     model = d / "shot.pt"
     p = run_cli("fit", "--blend", str(blend), "--out", str(model), "--frames", f"{SHOT[0]}-{SHOT[1]}", "--views", "6",
                 "--minutes", "0.5", "--size", "64x36", "--ref-samples", "2", "--init", str(generic), "--drop-tol",
-                str(ABLATE_ALL), "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--learn-rest", "--json",
+                str(ABLATE_ALL), "--min-run-seconds", "1", "--threads", "1", "--crop", "32", "--json",
                 timeout=2400)
     return dict(dir=d, blend=blend, model=model, summary=json.loads(p.stdout))
 
@@ -80,44 +80,22 @@ def test_fit_shot_bakes_no_view_within_a_frame_of_the_withheld_frames(shot_fit):
     assert val_cams and all(plan["cameras"][c] == "val" for c in val_cams)
 
 
-def test_a_fit_that_learns_the_rest_bakes_eevees_rest_and_learns_cycles_minus_it(shot_fit):
-    """--learn-rest: the views hold EEVEE's rest at the scene's own samples (the node's), rendered as the node
-    renders it, and the fitted model's target is ref_minus_rest, composed as the node composes a diffuse-part
-    model (prediction + rest)."""
-    import numpy as np
-
+def test_a_shot_fit_of_rough_surfaces_learns_the_diffuse_part_and_bakes_no_rest(shot_fit):
+    """The shot has no mirror or metal (pipeline.fit.has_glossy): its views hold neither EEVEE's rest nor its Glossy
+    Color, the fitted model learns Cycles' diffuse part (composed as prediction + the node's rest), and no
+    reflection map is written or reported."""
     from ssgi.model import channels as ch
-    from ssgi.model.dataset import exrio, folder as data_folder
-    work = shot_fit["dir"] / "shot.fit"
-    plan = json.loads((work / "views_plan.json").read_text())
-    assert plan["rest_samples"] == 1  # the scene renders 1 sample
-    (views,) = [p for p in work.glob("views-*") if p.is_dir()]
-    m = data_folder.open_folder(views, scenes=True)
-    assert "rest" in data_folder.stored_groups(m) and m["settings"]["eevee"]["rest"]["samples"] == 1
-    key, meta = sorted(m["samples"].items())[0]
-    g = exrio.read_sample(data_folder.sample_path(views, key), ("rest", "ref", "ref_diffuse", "emission"))
-    assert np.isfinite(g["rest"]).all() and np.abs(g["rest"]).max() > 0
-    # the node's rest of the same view, rendered here again
-    got = views.parent / "rest_again.npy"
-    run_py(f'''
-import bpy, numpy as np
-from ssgi.ssgi_addon.blender import passes
-bpy.ops.wm.open_mainfile(filepath={str(sorted(work.glob("views-*.blend"))[0])!r})
-sc = bpy.context.scene
-sc.camera = sc.objects[{meta["camera"]!r}]
-sc.frame_set({int(meta["frame"])})
-passes.set_resolution(sc, 64, 36)
-np.save({str(got)!r}, passes.render_rest(sc, 1, proxies=True)[0])
-''', timeout=300)
-    again = np.load(got)
-    assert np.abs(again - g["rest"][..., :3]).mean() < 0.02 * max(1e-3, float(np.abs(again).mean()))
-    ck = checkpoint.load(shot_fit["model"])
-    assert ck["arch"]["target"] == ch.REST_TARGET
-    # no reflection map beside a model that learned Cycles minus EEVEE's own rest (it would count the rest's
-    # correction twice), though the views hold the rest render's gloss
+    from ssgi.model.dataset import folder as data_folder
     from ssgi.model.evaluate import fit_report
     from ssgi.model.infer import reflmap as rm
-    assert "gloss" in data_folder.stored_groups(m)
+    work = shot_fit["dir"] / "shot.fit"
+    plan = json.loads((work / "views_plan.json").read_text())
+    assert "rest_samples" not in plan
+    (views,) = [p for p in work.glob("views-*") if p.is_dir()]
+    m = data_folder.open_folder(views, scenes=True)
+    assert not {"rest", "gloss"} & set(data_folder.stored_groups(m)) and "rest" not in m["settings"]["eevee"]
+    ck = checkpoint.load(shot_fit["model"])
+    assert ck["arch"]["target"] == ch.DIFFUSE_TARGET and ch.base_group(ck["arch"]["target"]) == "rest"
     assert not rm.path_for(shot_fit["model"]).exists()
     assert "reflmap" not in json.loads(fit_report.report_paths(shot_fit["model"])[0].read_text())
 
@@ -260,14 +238,19 @@ def test_fit_panel_passes_the_shot_to_the_fit(shot_fit, tmp_path):
 import bpy, json, ssgi
 from ssgi.ssgi_addon.runtime import jobs
 ssgi.register()
+r = {{}}
 bpy.ops.wm.open_mainfile(filepath={str(shot_fit["blend"])!r})
 sc = bpy.context.scene
 s = sc.ssgi
 s.fit_out = {str(tmp_path / "op.pt")!r}
 s.fit_shot = True
-s.fit_learn_rest = True
+s["fit_learn_rest"] = True  # what a file saved with the removed "Learn the Rest" setting stores: it still opens
+bpy.ops.wm.save_as_mainfile(filepath={str(tmp_path / "old.blend")!r})
+bpy.ops.wm.open_mainfile(filepath={str(tmp_path / "old.blend")!r})
+sc = bpy.context.scene
+s = sc.ssgi
+r["kept"] = s.get("fit_learn_rest")
 s.fit_frame_end = 60
-r = {{}}
 try:
     r["bad"] = list(bpy.ops.ssgi.fit_scene())
 except RuntimeError as e:
@@ -286,7 +269,6 @@ job = jobs.get("fit")
 r["cmd_nolm"] = job.cmd
 bpy.ops.ssgi.cancel_job(job="fit")
 job.wait(60)
-s.fit_learn_rest = False
 s.fit_one_render = True
 assert bpy.ops.ssgi.fit_scene() == {{"FINISHED"}}
 job = jobs.get("fit")
@@ -304,12 +286,12 @@ json.dump(r, open({str(res)!r}, "w"))
     assert "outside scene 'ripple''s frame range 1-20" in r.get("bad_error", "") or r.get("bad") == ["CANCELLED"]
     assert r["job_after_bad"] is False
     i = r["cmd"].index("--frames")
-    assert r["cmd"][i + 1] == "1-20" and "--learn-rest" in r["cmd"]
+    assert r["cmd"][i + 1] == "1-20"
+    assert r["kept"] in (True, 1)  # the old file's stored setting is kept as data and ignored (not passed to the fit)
     assert "--no-lightmap" not in r["cmd"] and "--no-lightmap" in r["cmd_nolm"]  # the shot lightmap: on by default
     assert "--no-reflmap" not in r["cmd"] and "--no-reflmap" in r["cmd_nolm"]  # the reflection map too
     # a one-render fit that reads the render's Combined image (no Diffuse Direct pass in its frames)
     assert "--one-render" in r["cmd_one"] and "--one-render" not in r["cmd"]
     assert "fit_one_render" in r["props"]
-    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_learn_rest", "fit_lightmap",
-            "fit_reflmap"} <= set(r["props"])
+    assert {"fit_shot", "fit_frame_start", "fit_frame_end", "fit_lightmap", "fit_reflmap"} <= set(r["props"])
     assert "fit_shot" in r["props_off"] and "fit_frame_start" not in r["props_off"] and "fit_lightmap" not in r["props_off"]

@@ -66,18 +66,16 @@ def test_a_one_render_fit_reads_the_combined_image_and_no_diffuse_direct():
     from ssgi.ssgi_addon.pipeline import fit as pfit
     from ssgi.ssgi_addon.pipeline.bake import ONE_RENDER_BAKE_GROUPS, BakeConfig
 
-    ladder, target, inputs = pfit.one_render_ladder(None, None, shot=True)
+    ladder, target, inputs = pfit.one_render_ladder(None, shot=True)
     assert [r[0] for r in ladder] == [r[0] for r in LADDER] and all(r[2]["head"] == "residual_combined" for r in ladder)
     assert all(r[2]["widths"] == l[2]["widths"] for r, l in zip(ladder, LADDER))  # the ladder's sizes are kept
-    assert target == SHOT_BAR_DB and pfit.one_render_ladder(None, 31.0, shot=True)[1] == 31.0
+    assert target == SHOT_BAR_DB and pfit.one_render_ladder(31.0, shot=True)[1] == 31.0
     spec = ch.parse_spec(inputs)
     assert set(ch.required_groups(spec)) <= set(ONE_RENDER_BAKE_GROUPS) and "eevee_local" not in spec, spec
     assert not set(spec) & {"direct", "world", "direct_soft", "emit_direct", "lit", "scene"}, spec
     # (the fit's report and comparisons, a shot's reflection map)
     assert {"eevee_combined", "eevee_local", "rest", "gloss"} <= set(ONE_RENDER_BAKE_GROUPS)
     assert lightmap.known_for(ch.required_groups(spec)) == ()  # no known light: the field is the light it adds
-    with pytest.raises(UserError, match="--learn-rest"):
-        pfit.FitSceneConfig(out="x.pt", blend="x.blend", one_render=True, learn_rest=True).check()
     with pytest.raises(UserError, match="--data"):
         pfit.FitSceneConfig(out="x.pt", data="views", one_render=True).check()
     # --one-render is a plain flag of both commands, off by default in both; the Fit panel has no other choice

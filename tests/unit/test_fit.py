@@ -259,9 +259,10 @@ def test_fit_stage_config_refuses_bad_settings_before_any_work(tmp_path):
                     (dict(out=str(tmp_path / "m.pt")), "--blend FILE"),
                     (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), views=3), "at least 4 views"),
                     (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), init=str(tmp_path / "x.pt")), "no such model"),
-                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet"]]), "--ladder"),
-                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), rest_samples=4), "with --learn-rest"),
-                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), learn_rest=True, rest_samples=0),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), rest_samples=4), "with a shot fit"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), frames=(1, 20), reflmap=False,
+                          rest_samples=4), "and its reflection map"),
+                    (dict(out=str(tmp_path / "m.pt"), data=str(tmp_path), frames=(1, 20), rest_samples=0),
                      "give a positive count")):
         with pytest.raises(UserError, match=msg):
             FitSceneConfig(**kw).check()
@@ -281,8 +282,9 @@ def test_view_counts_and_roles():
 
 
 def test_fit_with_an_empty_ladder_only_fine_tunes_the_starting_checkpoint(views, generic, tmp_path):
-    """``--ladder '[]'``: the size search trains the starting checkpoint alone (no scratch network); without a
-    checkpoint there is nothing to train, which is a one-line error before any training."""
+    """An empty ladder (a shot fit's, pipeline.fit.shot_defaults): the size search trains the starting checkpoint
+    alone (no scratch network); without a checkpoint there is nothing to train, which is a one-line error before any
+    training."""
     cfg = fit.FitConfig(data=str(views), out=str(tmp_path / "ft.pt"), train_keys=TRAIN, val_keys=VAL, minutes=0.2,
                         init=str(generic), ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0,
                         bench_size="96x64", bench_repeats=1, command="test")
@@ -291,40 +293,64 @@ def test_fit_with_an_empty_ladder_only_fine_tunes_the_starting_checkpoint(views,
     assert [r["name"] for r in size] == ["generic-ft"] and size[0]["decision"] == "kept"
     cfg = fit.FitConfig(data=str(views), out=str(tmp_path / "none.pt"), train_keys=TRAIN, val_keys=VAL, minutes=0.2,
                         ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0, command="test")
-    with pytest.raises(UserError, match="--ladder is empty"):
+    with pytest.raises(UserError, match="the size ladder is empty"):
         fit.fit(cfg, log=lambda m: None)
     assert not (tmp_path / "none.pt").exists()
 
 
-def test_a_shot_fit_fine_tunes_the_starting_checkpoint_towards_the_shot_bar_unless_told_otherwise(tmp_path):
+def test_a_shot_fit_fine_tunes_the_starting_checkpoint_towards_the_shot_bar(tmp_path):
     from ssgi.model.evaluate.fit_report import SHOT_BAR_DB
     from ssgi.ssgi_addon.pipeline.fit import FitSceneConfig, shot_defaults
     cfg = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path))
     assert shot_defaults(cfg, "generic.pt", shot=True) == ([], SHOT_BAR_DB) and SHOT_BAR_DB == 35.0
     assert shot_defaults(cfg, "generic.pt", shot=False) == (None, None)  # a still scene: the ladder, generic + 2 dB
     assert shot_defaults(cfg, None, shot=True) == (None, None)  # nothing to fine-tune: the scratch ladder
-    told = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[["xs", "unet", {}]], target_psnr=30.0)
-    assert shot_defaults(told, "generic.pt", shot=True) == ([["xs", "unet", {}]], 30.0)
-    empty = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), ladder=[])
-    assert shot_defaults(empty, "generic.pt", shot=False) == ([], None)  # an explicit [] is kept, not the default
+    told = FitSceneConfig(out=str(tmp_path / "m.pt"), data=str(tmp_path), target_psnr=30.0)
+    assert shot_defaults(told, "generic.pt", shot=True) == ([], 30.0)  # the fine-tune alone, towards the given PSNR
+    assert shot_defaults(told, "generic.pt", shot=False) == (None, 30.0)
 
 
-# ---- learning the rest (EEVEE's rest caps a diffuse-part fit, docs/fit.md)
+def test_cli_fit_has_no_size_ladder_or_rest_target_option():
+    """A still scene searches model.learn.fit.LADDER and a shot fit fine-tunes its start: there is no option to
+    give a ladder, nor to learn Cycles' image minus EEVEE's rest."""
+    import argparse
 
-def test_the_rest_target_is_cycles_minus_eevees_rest_and_composes_back_to_cycles():
-    from ssgi.model.infer import compose
-    g = synthetic.with_rest(synthetic.sample(40, 24, 5, 6), 5)
-    y = normalize.target(g, ch.REST_TARGET)
-    np.testing.assert_array_equal(y, np.maximum(g["ref"][..., :3] - g["rest"][..., :3], 0))
-    assert (y > g["ref_diffuse"][..., :3] + 1e-3).any()  # it holds the glossy glow EEVEE's rest misses
-    # a model that predicted it exactly: the node's image is Cycles' image, which a perfect ref_diffuse one misses
-    np.testing.assert_allclose(compose.compose(y, g, ch.REST_TARGET), g["ref"][..., :3], rtol=1e-6, atol=1e-6)
-    assert not np.allclose(compose.compose(g["ref_diffuse"], g, ch.DIFFUSE_TARGET), g["ref"][..., :3], atol=1e-3)
-    # a non-finite rest counts 0
-    np.testing.assert_array_equal(normalize.target(dict(g, rest=np.full_like(g["rest"], np.nan)), ch.REST_TARGET),
-                                  np.maximum(g["ref"][..., :3], 0))
-    assert ch.adds_rest(ch.REST_TARGET) and ch.adds_rest(ch.DIFFUSE_TARGET) and not ch.adds_rest(ch.TARGET_GROUP)
-    assert compose.needs(ch.REST_TARGET) == ("rest",) and ch.target_groups(ch.REST_TARGET) == ("ref", "rest")
+    from ssgi.ssgi_addon.commands import fit as cfit
+    parser = argparse.ArgumentParser()
+    cfit.register_cli(parser.add_subparsers())
+    p = parser.parse_args(["fit", "--out", "m.pt", "--blend", "a.blend"])
+    assert not hasattr(p, "ladder") and not hasattr(p, "learn_rest")
+    for gone in ("--ladder", "--learn-rest"):
+        with pytest.raises(SystemExit):
+            parser.parse_args(["fit", "--out", "m.pt", "--blend", "a.blend", gone, "[]"])
+
+
+# ---- views that hold EEVEE's rest (a glossy shot's, for its reflection map)
+
+def test_a_model_that_learned_the_rest_target_is_refused_in_one_line_naming_the_fit_to_run(generic, tmp_path):
+    """Target ref_minus_rest (Cycles' image minus EEVEE's rest) is no longer learned: a checkpoint or an ONNX export
+    of such a model is refused with one line saying to fit it again, never a traceback."""
+    import types
+
+    from ssgi.model.infer import onnx as ort_backend
+    ck = checkpoint.load(generic)
+    ck["arch"] = dict(ck["arch"], target="ref_minus_rest")
+    path = tmp_path / "rest.pt"
+    checkpoint.save(path, ck)
+    for load in (checkpoint.load, predictor.load_predictor):
+        with pytest.raises(UserError) as e:
+            load(path)
+        msg = str(e.value)
+        assert msg.startswith(f"{path}: was fitted to learn Cycles' image minus EEVEE's rest (target 'ref_minus_rest'), "
+                              "which SSGI no longer does; fit it again with `cli.py fit`") and "\n" not in msg
+    meta = {"ssgi_onnx": json.dumps(ort_backend.ONNX_VERSION), "inputs": json.dumps(["albedo", "normal"]),
+            "arch": json.dumps({"target": "ref_minus_rest"}), "multiple": "8", "receptive_field": "45"}
+    sess = types.SimpleNamespace(get_modelmeta=lambda: types.SimpleNamespace(custom_metadata_map=meta))
+    with pytest.raises(UserError, match=r"rest.onnx: was fitted to learn .*fit it again with `cli.py fit`"):
+        ort_backend.read_meta(sess, "rest.onnx")
+    with pytest.raises(UserError, match="target 'ref_minus_rest' .* no longer learns; fit it again with `cli.py fit`"):
+        ch.check_target("ref_minus_rest")
+    assert "ref_minus_rest" not in ch.TARGETS
 
 
 @pytest.fixture(scope="module")
@@ -333,27 +359,23 @@ def rest_views(tmp_path_factory):
                                   rest=True)
 
 
-def test_a_fit_that_learns_the_rest_trains_and_scores_against_cycles_minus_the_rest(rest_views, generic, tmp_path):
-    """FitConfig(target="ref_minus_rest") (cli.py fit --learn-rest): the checkpoint learns and records that target,
-    the report's val PSNR is its own against Cycles minus EEVEE's rest, and the node score composes its prediction
-    with the view's rest against Cycles' whole image."""
+def test_a_fit_on_views_with_eevees_rest_scores_the_node_image_prediction_plus_rest(rest_views, generic, tmp_path):
+    """Views that hold EEVEE's rest (a glossy shot's): the fit learns Cycles' diffuse part, the report's val PSNR is
+    its own against that part, and the node score composes its prediction with the view's rest against Cycles'
+    whole image."""
     from ssgi.model.infer import compose
-    out = tmp_path / "rest.pt"
+    out = tmp_path / "diffuse.pt"
     cfg = fit.FitConfig(data=str(rest_views), out=str(out), train_keys=TRAIN, val_keys=VAL, test_keys=TEST,
                         minutes=0.2, init=str(generic), ladder=[], threads=1, crop=32, batch=8, min_run_s=1.0,
-                        drop_tol=-math.inf, bench_size="96x64", bench_repeats=1, target=ch.REST_TARGET, command="test")
+                        drop_tol=-math.inf, bench_size="96x64", bench_repeats=1, command="test")
     res = fit.fit(cfg, log=lambda m: None)
     ck = checkpoint.load(out)
-    assert ck["arch"]["target"] == ch.REST_TARGET
+    assert ck["arch"]["target"] == ch.DIFFUSE_TARGET
     net = checkpoint.build_net(ck)
     v = data.StoredSamples(rest_views, KEYS)
-    spec = tuple(ck["inputs"])
-    own = evaluate(net, v.samples(spec, VAL, target=ch.REST_TARGET))["val_psnr"]
+    own = evaluate(net, v.samples(tuple(ck["inputs"]), VAL, target=ch.DIFFUSE_TARGET))["val_psnr"]
     assert own == pytest.approx(res["final"]["val"]["psnr"], abs=1e-6)
-    other = evaluate(net, v.samples(spec, VAL, target=ch.DIFFUSE_TARGET))["val_psnr"]
-    assert abs(own - other) > 0.05  # the two targets differ on these views: the report used the rest one
     pred = predictor.load_predictor(out)
-    assert pred.target == ch.REST_TARGET
     se, n = 0.0, 0
     for k in TEST:
         g = v.raw[k]
@@ -364,13 +386,13 @@ def test_a_fit_that_learns_the_rest_trains_and_scores_against_cycles_minus_the_r
     assert 10 * math.log10(n / se) == pytest.approx(res["final"]["test_node"]["psnr"], abs=1e-4)
 
 
-def test_a_fit_refuses_a_whole_image_target_and_views_without_rest(views, generic, tmp_path):
+def test_a_fit_refuses_a_whole_image_target_and_views_without_its_targets_groups(views, generic, tmp_path):
     kw = dict(train_keys=TRAIN, val_keys=VAL, minutes=0.1, init=str(generic), ladder=[], threads=1, crop=32, batch=8,
               min_run_s=1.0, command="test")
-    with pytest.raises(UserError, match="a fit learns ref_diffuse or ref_minus_rest"):
+    with pytest.raises(UserError, match="a fit learns ref_diffuse .* or ref_combined"):
         fit.FitConfig(data=str(views), out=str(tmp_path / "a.pt"), target=ch.TARGET_GROUP, **kw).check()
-    with pytest.raises(UserError, match="lack rest"):
-        fit.fit(fit.FitConfig(data=str(views), out=str(tmp_path / "b.pt"), target=ch.REST_TARGET, **kw),
+    with pytest.raises(UserError, match="lack eevee_combined"):
+        fit.fit(fit.FitConfig(data=str(views), out=str(tmp_path / "b.pt"), target=ch.COMBINED_TARGET, **kw),
                 log=lambda m: None)
     assert not (tmp_path / "b.pt").exists()
 

@@ -194,9 +194,9 @@ def test_the_blend_weight_is_chosen_on_the_validation_views(tmp_path):
     with pytest.raises(UserError, match=r"000002\.exr: missing channel\(s\) ref_diffuse"):
         llm.choose_weight(_field(0.0, 0.8), tmp_path, cams | {"000002": cams["000000"]}, ["000002"],
                           _Scaled(light, 1.0), "ref_diffuse")
-    # the target of a rest-learning fit: Cycles minus the rest, per view
-    t = llm.view_target(dict(ref=ref, rest=rest), "ref_minus_rest")
-    assert np.allclose(t, g["albedo"] * light)
+    # the target of a one-render fit: what its prediction adds to EEVEE's GI-off image, signed, per view
+    t = llm.view_target(dict(ref=ref, eevee_combined=rest + 0.1), "ref_combined")
+    assert np.allclose(t, g["albedo"] * light - 0.1)
     # the points of the views: every usable pixel, light = target / albedo
     pos, nrm, y = llm.points(tmp_path, cams, ["000000"], "ref_diffuse")
     from ssgi.model.images import geometry_mask

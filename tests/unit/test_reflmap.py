@@ -178,5 +178,5 @@ def test_one_rule_says_which_models_take_the_map_on_eevees_gi_off_image():
     from ssgi.model import channels as ch
     from ssgi.model.infer.reflmap import corrects_combined
     assert corrects_combined(ch.COMBINED_TARGET)
-    assert not corrects_combined(ch.DIFFUSE_TARGET) and not corrects_combined(ch.REST_TARGET)
+    assert not corrects_combined(ch.DIFFUSE_TARGET)
     assert not corrects_combined(ch.TARGET_GROUP)
