@@ -114,6 +114,40 @@ def plane(scene, name, center, size, mat, rot=(0, 0, 0)):
     return _object(scene, name, bm, mat, center, rot)
 
 
+def box_with_hole(scene, name, center, dims, mat, hole, axes=(0, 2)):
+    """A slab ``box`` with a rectangular hole (a window in a wall, a skylight in a ceiling) as four boxes
+    ``<name>_left/_right/_below/_above``: ``hole`` = (a0, a1, b0, b1) in world coordinates along ``axes``
+    (x and z for a wall facing y, x and y for a ceiling); "below" and "above" are along the second axis."""
+    (i, j), c, dm = axes, list(center), list(dims)
+    lo_a, hi_a, lo_b, hi_b = c[i] - dm[i] / 2, c[i] + dm[i] / 2, c[j] - dm[j] / 2, c[j] + dm[j] / 2
+    a0, a1, b0, b1 = hole
+    parts = {"left": ((lo_a + a0) / 2, a0 - lo_a, c[j], dm[j]), "right": ((a1 + hi_a) / 2, hi_a - a1, c[j], dm[j]),
+             "below": ((a0 + a1) / 2, a1 - a0, (lo_b + b0) / 2, b0 - lo_b),
+             "above": ((a0 + a1) / 2, a1 - a0, (b1 + hi_b) / 2, hi_b - b1)}
+    out = {}
+    for part, (ca, da, cb, db) in parts.items():
+        pc, pd = list(c), list(dm)
+        pc[i], pd[i], pc[j], pd[j] = ca, da, cb, db
+        out[part] = box(scene, f"{name}_{part}", tuple(pc), tuple(pd), mat)
+    return out
+
+
+def cyclorama(scene, mat, name="cyclorama", half_width=4.0, front=-4.0, cove_y=1.0, radius=1.5, height=4.0,
+              steps=16):
+    """A photo studio's curved backdrop, x in [-half_width, half_width]: a floor from y = ``front`` to
+    ``cove_y``, a quarter circle of ``radius`` (``steps`` faces) up to a back wall at y = cove_y + radius,
+    ``height`` tall."""
+    r, yc, zc, n = radius, cove_y, radius, steps
+    prof = [(front, 0.0), (yc, 0.0)]
+    prof += [(yc + r * math.sin(a), zc - r * math.cos(a)) for a in (math.pi / 2 * i / n for i in range(1, n + 1))]
+    prof += [(yc + r, height)]
+    bm = bmesh.new()
+    rows = [[bm.verts.new((x, y, z)) for y, z in prof] for x in (-half_width, half_width)]
+    for i in range(len(prof) - 1):
+        bm.faces.new((rows[0][i], rows[1][i], rows[1][i + 1], rows[0][i + 1]))
+    return _object(scene, name, bm, mat, smooth=True)
+
+
 def aim(obj, target) -> None:
     """Point the object's -Z (cameras, lights) at ``target``."""
     d = Vector(target) - Vector(obj.location)
@@ -246,11 +280,7 @@ def build_living_room(scene) -> None:
     _room_shell(scene, (floor, principled("ceiling_paint", (0.85, 0.85, 0.85)), wall), w, d, h, t,
                 skip=("wall_back",))
     # the back wall with a 1.6 x 1.2 m window, its sill at 0.9 m, centred at x = 0.6
-    wx0, wx1, wz0, wz1, yb = -0.2, 1.4, 0.9, 2.1, d / 2 + t / 2
-    box(scene, "wall_back_left", ((-w / 2 - t + wx0) / 2, yb, h / 2), (wx0 + w / 2 + t, t, h), wall)
-    box(scene, "wall_back_right", ((wx1 + w / 2 + t) / 2, yb, h / 2), (w / 2 + t - wx1, t, h), wall)
-    box(scene, "wall_back_below", ((wx0 + wx1) / 2, yb, wz0 / 2), (wx1 - wx0, t, wz0), wall)
-    box(scene, "wall_back_above", ((wx0 + wx1) / 2, yb, (wz1 + h) / 2), (wx1 - wx0, t, h - wz1), wall)
+    box_with_hole(scene, "wall_back", (0, d / 2 + t / 2, h / 2), (w + 2 * t, t, h), wall, (-0.2, 1.4, 0.9, 2.1))
     fabric = principled("armchair_fabric", (0.55, 0.12, 0.10), roughness=0.8, texture="ShaderNodeTexChecker")
     box(scene, "armchair_seat", (-0.9, 1.0, 0.22), (0.9, 0.8, 0.44), fabric, rot_z=math.radians(20))
     box(scene, "armchair_back", (-1.03, 1.35, 0.6), (0.9, 0.2, 0.7), fabric, rot_z=math.radians(20))
@@ -271,16 +301,7 @@ def build_living_room(scene) -> None:
 def build_studio(scene) -> None:
     """A product shot: a white cyclorama, a gold sphere (metallic 1, roughness 0.2), a glass cylinder
     (transmission 1), a sheet of tinted transparent film (alpha 0.35), two big area lights; film transparent."""
-    # the cyclorama: floor y in [-4, 1], a quarter circle of radius 1.5 up to a back wall at y = 2.5, 4 m tall
-    r, yc, zc, n = 1.5, 1.0, 1.5, 16
-    prof = [(-4.0, 0.0), (yc, 0.0)]
-    prof += [(yc + r * math.sin(a), zc - r * math.cos(a)) for a in (math.pi / 2 * i / n for i in range(1, n + 1))]
-    prof += [(yc + r, 4.0)]
-    bm = bmesh.new()
-    rows = [[bm.verts.new((x, y, z)) for y, z in prof] for x in (-4.0, 4.0)]
-    for i in range(len(prof) - 1):
-        bm.faces.new((rows[0][i], rows[1][i], rows[1][i + 1], rows[0][i + 1]))
-    _object(scene, "cyclorama", bm, principled("cyclorama_white", (0.8, 0.8, 0.8)), smooth=True)
+    cyclorama(scene, principled("cyclorama_white", (0.8, 0.8, 0.8)))
     gold = principled("gold", (1.0, 0.766, 0.336), roughness=0.2, metallic=1.0)
     sphere(scene, "gold_sphere", (-0.55, 0.4, 0.45), 0.45, gold)
     glass = principled("glass", (1.0, 1.0, 1.0), roughness=0.0, transmission=1.0, ior=1.45)
@@ -378,16 +399,22 @@ def tiny_material_scene(scene) -> dict[str, str]:
             "glass": glass.name, "glossy": glossy.name}
 
 
-def build(name: str, size=DEFAULT_SIZE):
-    """Blender reset to an empty file, scene ``name`` built into it at ``size``; the scene."""
-    if name not in BUILDERS:
-        raise ValueError(f"{name!r}: no such artist scene; scenes: {', '.join(NAMES)}")
+def build_from(builders, name: str, size, kind: str = "artist"):
+    """Blender reset to an empty file, scene ``name`` built into it by ``builders[name]`` with ``render_settings``
+    at ``size``; the scene. ``kind`` names the set in the error for an unknown name."""
+    if name not in builders:
+        raise ValueError(f"{name!r}: no such {kind} scene; scenes: {', '.join(builders)}")
     scene = scenes.empty_scene()
     scene.name = name
-    BUILDERS[name](scene)
+    builders[name](scene)
     render_settings(scene, size)
     scene.view_layers[0].update()  # the objects' matrix_world
     return scene
+
+
+def build(name: str, size=DEFAULT_SIZE):
+    """Blender reset to an empty file, scene ``name`` built into it at ``size``; the scene."""
+    return build_from(BUILDERS, name, size)
 
 
 def save(scene, path) -> Path:
@@ -426,8 +453,10 @@ def _stats(img) -> dict:
                 under002=round(float((lum < 0.02).mean()), 4))
 
 
-def look(names, size, out_dir, spp: int) -> list[dict]:
-    """EEVEE (own settings) | Cycles spp + OIDN, side by side, one PNG per scene (images.srgb8) in ``out_dir``."""
+def look(names, size, out_dir, spp: int, build=build) -> list[dict]:
+    """EEVEE (own settings) | Cycles spp + OIDN, side by side, one PNG per scene (images.srgb8) in ``out_dir``;
+    ``build(name, size)`` makes each scene (this module's by default). Prints and returns one row per scene: the
+    images' statistics and the seconds of each render."""
     import numpy as np
     from ssgi.model import images
     out_dir = Path(out_dir)
@@ -462,20 +491,20 @@ def agreement(names, size, spp: int) -> list[dict]:
     return rows
 
 
-def main(argv=None) -> int:
+def scene_arguments(description: str, names) -> argparse.ArgumentParser:
+    """The command line of a scene module: --out, --size, --names (of ``names``), --look, --look-spp."""
     from ssgi.model.cliargs import parse_size
-    ap = argparse.ArgumentParser(description="Build the artist test set as .blend files, look at it, "
-                                             "or measure its Cycles references' agreement.")
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--out", help="write OUT/<name>.blend for each scene")
     ap.add_argument("--size", type=parse_size, default=DEFAULT_SIZE, help="render size saved in the files (320x180)")
-    ap.add_argument("--names", nargs="+", choices=NAMES, default=list(NAMES), help="scenes (default: all)")
+    ap.add_argument("--names", nargs="+", choices=names, default=list(names), help="scenes (default: all)")
     ap.add_argument("--look", metavar="DIR", help="render EEVEE (own settings) | Cycles + OIDN into DIR/<name>.png")
     ap.add_argument("--look-spp", type=int, default=64, help="Cycles samples of --look (64)")
-    ap.add_argument("--agreement", action="store_true", help="two Cycles seeds + OIDN per scene: PSNR, seconds")
-    ap.add_argument("--spp", type=int, default=128, help="Cycles samples of --agreement (128)")
-    a = ap.parse_args(argv)
-    if not (a.out or a.look or a.agreement):
-        ap.error("give --out DIR, --look DIR or --agreement")
+    return ap
+
+
+def save_and_look(a, build=build) -> None:
+    """What --out and --look of ``scene_arguments`` ask for, each scene made by ``build(name, size)``."""
     size = tuple(a.size)
     if a.out:
         Path(a.out).mkdir(parents=True, exist_ok=True)
@@ -483,7 +512,19 @@ def main(argv=None) -> int:
             p = save(build(name, size), Path(a.out) / f"{name}.blend")
             print(p, flush=True)
     if a.look:
-        look(a.names, size, a.look, a.look_spp)
+        look(a.names, size, a.look, a.look_spp, build=build)
+
+
+def main(argv=None) -> int:
+    ap = scene_arguments("Build the artist test set as .blend files, look at it, or measure its Cycles references' "
+                         "agreement.", NAMES)
+    ap.add_argument("--agreement", action="store_true", help="two Cycles seeds + OIDN per scene: PSNR, seconds")
+    ap.add_argument("--spp", type=int, default=128, help="Cycles samples of --agreement (128)")
+    a = ap.parse_args(argv)
+    if not (a.out or a.look or a.agreement):
+        ap.error("give --out DIR, --look DIR or --agreement")
+    size = tuple(a.size)
+    save_and_look(a)
     if a.agreement:
         agreement(a.names, size, a.spp)
     return 0

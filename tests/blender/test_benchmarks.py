@@ -18,7 +18,7 @@ def test_the_tool_scripts_live_in_benchmarks_and_docs_holds_no_python():
     assert not list((ROOT / "docs").rglob("*.py"))
 
 
-@pytest.mark.parametrize("module", ["scenes.artist", "scenes.shots"])
+@pytest.mark.parametrize("module", ["scenes.artist", "scenes.heldout", "scenes.shots"])
 def test_each_scene_module_runs_from_the_repo_root(module):
     p = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert p.returncode == 0 and "--out" in p.stdout, clean(p.stderr)[-2000:]
