@@ -292,7 +292,7 @@ def one_render_models(tmp_path_factory):
     out = []
     for name, variant, inputs, target, over in (
             ("comb", "unet_s", "albedo,normal,depth,emission,eevee_combined,glow,surround", ch.COMBINED_TARGET,
-             dict(head="residual_combined"))):
+             dict(head="residual_combined")),):
         torch.manual_seed(0)
         net = network.build(network.arch_for(variant, inputs=inputs, target=target, **over)).eval()
         checkpoint.save(d / f"{name}.pt", checkpoint.make(net, "network", command="test"))
