@@ -32,8 +32,10 @@ DEVICES = ("auto", "cpu", "cuda", "mps")
 
 
 def check_versions(meta: dict, path) -> None:
-    """UserError unless ``meta`` (a checkpoint's plain data) was made for this SSGI's channel spec and
-    normalisation, with a network variant it has."""
+    """UserError unless ``meta`` (a checkpoint's or an ONNX export's plain data) was made for this SSGI's channel
+    spec and normalisation, of a one-render kind, a target and a network variant it has."""
+    ch.refuse_gone_model(meta["inputs"], path)
+    ch.refuse_gone_target(meta["arch"], path)
     fv, nv = meta.get("format_version"), (meta.get("normalization") or {}).get("version")
     if fv != ch.FORMAT_VERSION or nv != normalize.DESCRIPTION["version"]:
         raise UserError(f"{path}: model was trained on channel spec v{fv} with normalisation v{nv}; this SSGI reads "
