@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import channels as ch
 from . import exrio, folder
 
 
@@ -91,7 +92,7 @@ def with_shipped_inputs(g: dict, seed: int) -> dict:
     rs = np.random.default_rng(seed + 1)
     g["direct_soft"] = (0.8 * g["direct"]).astype(np.float32)
     g["emit_direct"] = (0.1 * g["emission"].max(-1, keepdims=True) * g["albedo"]).astype(np.float32)
-    g["surround"] = rs.uniform(0, 1, (h, w, 12)).astype(np.float32)
+    g["surround"] = rs.uniform(0, 1, (h, w, len(ch.GROUPS["surround"].channels))).astype(np.float32)
     return g
 
 
