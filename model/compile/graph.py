@@ -150,6 +150,8 @@ def frame_params(rot: np.ndarray, coef: np.ndarray) -> dict[str, np.ndarray]:
 def _shift(a: np.ndarray, dx: int, dy: int) -> np.ndarray:
     h, w = a.shape[:2]
     out = np.zeros_like(a)
+    if abs(dy) >= h or abs(dx) >= w:  # shifted out of the image
+        return out
     ys, yd = (slice(dy, h), slice(0, h - dy)) if dy >= 0 else (slice(0, h + dy), slice(-dy, h))
     xs, xd = (slice(0, w - dx), slice(dx, w)) if dx >= 0 else (slice(-dx, w), slice(0, w + dx))
     out[yd, xd] = a[ys, xs]
