@@ -73,18 +73,22 @@ class _Builder:
         return name
 
 
-def box_means(g: _Builder, c: str, levels: list[int]) -> list[str]:
-    """log1p of the mean of ``c`` over boxes of 2**level pixels a side (doubling chains of shifted adds, zeros outside:
-    network.BoxMLP.box_means)."""
+def box_means(g: _Builder, c: str, levels: list[int], passes: int = 1) -> list[str]:
+    """log1p of the mean of ``c`` over boxes of 2**level pixels a side, each applied ``passes`` times along each axis
+    (doubling chains of shifted adds, zeros outside: network.BoxMLP.box_means)."""
     from ..learn.network import box_shift  # (torch is imported there: only when compiling a checkpoint)
 
     made, bx = {}, c
     for k in range(max(levels) + 1):
         if k in levels:
             by = bx
-            for j in range(k):
-                by = g("add", by, g("shift", by, 0, box_shift(j)))
-            made[k] = g("log1p", g("max", g("mul", by, 1.0 / (1 << (2 * k))), 0.0))
+            for _ in range(passes - 1):
+                for j in range(k):
+                    by = g("add", by, g("shift", by, box_shift(j), 0))
+            for _ in range(passes):
+                for j in range(k):
+                    by = g("add", by, g("shift", by, 0, box_shift(j)))
+            made[k] = g("log1p", g("max", g("mul", by, 1.0 / (1 << (2 * k * passes))), 0.0))
         if k < max(levels):
             bx = g("add", bx, g("shift", bx, box_shift(k), 0))
     return [made[k] for k in levels]
@@ -118,7 +122,7 @@ def from_checkpoint(ckpt: dict, width: int, path="model") -> Graph:
     # the sky group (model/sky.irradiance): the world's L1 light at the normal, 0 where nothing is hit
     sky = g("masklen", g("max", g("lincomb", nrm, skyp[1], skyp[2], skyp[3], bias=skyp[0]), 0.0), nrm, 0.5)
     feats = [a, ncam, g("log1p", c), g("log1p", g("clamp", sky, 0.0, LIGHT_MAX))]
-    feats += box_means(g, c, [box_levels(b, width, arch["ref_width"]) for b in arch["boxes"]])
+    feats += box_means(g, c, [box_levels(b, width, arch["ref_width"]) for b in arch["boxes"]], arch.get("passes", 1))
     convs = sorted({int(k.split(".")[1]) for k in sd if k.startswith("mlp.")})
     h = feats
     for i, k in enumerate(convs):

@@ -221,10 +221,12 @@ class BoxMLP(nn.Module):
     (``eevee_combined``, linear) at a few scales: every box is a chain of shifted adds (zeros outside the image),
     every layer a per-pixel multiply-add, so the whole network compiles into Blender's compositor nodes
     (model/compile). ``boxes``: each box's size as a power of two at ``ref_width`` pixels wide (the width it was
-    trained at); at another width the boxes keep their share of the image (``box_levels``). Train on whole
-    images (a crop's boxes differ from the image's near its edges)."""
+    trained at); at another width the boxes keep their share of the image (``box_levels``). ``passes``: each box
+    filter applied that many times along each axis (2: a tent, whose light fades instead of ending in a square
+    edge). Train on whole images (a crop's boxes differ from the image's near its edges)."""
 
-    def __init__(self, in_ch: int, spec, widths=(24, 24), boxes=(1, 3, 5, 7), ref_width=240, head="residual_combined"):
+    def __init__(self, in_ch: int, spec, widths=(24, 24), boxes=(1, 3, 5, 7), ref_width=240, passes=1,
+                 head="residual_combined"):
         super().__init__()
         lay = layout(spec)
         if "eevee_combined" not in lay:
@@ -232,7 +234,9 @@ class BoxMLP(nn.Module):
         if not widths or min(widths) < 1 or any(b < 0 for b in boxes):
             raise UserError(f"boxmlp needs widths >= 1 and boxes >= 0 (got {widths}, {boxes})")
         self.comb = (lay["eevee_combined"].start, lay["eevee_combined"].stop)
-        self.boxes, self.ref_width = [int(b) for b in boxes], int(ref_width)
+        self.boxes, self.ref_width, self.passes = [int(b) for b in boxes], int(ref_width), int(passes)
+        if self.passes < 1:
+            raise UserError(f"boxmlp needs passes >= 1 (got {passes})")
         layers, cin = [], in_ch + 3 * len(self.boxes)
         for w in widths:
             layers += [nn.Conv2d(cin, w, 1), nn.ReLU()]
@@ -251,9 +255,13 @@ class BoxMLP(nn.Module):
         for k in range(max(levels) + 1):
             if k in levels:
                 by = bx
-                for j in range(k):
-                    by = by + _shift(by, 0, box_shift(j))
-                out.append(torch.log1p(torch.relu(by * (1.0 / (1 << (2 * k))))))
+                for _ in range(self.passes - 1):
+                    for j in range(k):
+                        by = by + _shift(by, box_shift(j), 0)
+                for _ in range(self.passes):
+                    for j in range(k):
+                        by = by + _shift(by, 0, box_shift(j))
+                out.append(torch.log1p(torch.relu(by * (1.0 / (1 << (2 * k * self.passes))))))
             if k < max(levels):
                 bx = bx + _shift(bx, box_shift(k), 0)
         return [out[sorted(set(levels)).index(lv)] for lv in levels]
@@ -266,7 +274,7 @@ class BoxMLP(nn.Module):
 BACKBONES = {"fssgi": (FSSGI, ("width", "pre", "post", "head")),
              "unet": (UNet, ("widths", "convs", "head")),
              "linear": (PixelLinear, ("space",)),
-             "boxmlp": (BoxMLP, ("widths", "boxes", "ref_width", "head"))}
+             "boxmlp": (BoxMLP, ("widths", "boxes", "ref_width", "passes", "head"))}
 
 
 def target_of(arch: dict) -> str:

@@ -278,6 +278,9 @@ def setup_compiled(scene, model) -> dict:
         bpy.data.node_groups.remove(old)
     keyed = key_frames(scene, group)
     scene.render.use_compositing = True
+    # the viewport compositor works in half floats unless told otherwise (F12 always in full): exp and log of light
+    # need full
+    scene.render.compositor_precision = "FULL"
     return {"tree": tree.name, "node": node.name, "group": group.name, "nodes": len(group.nodes), "width": width,
             "keyed_frames": keyed, "model": str(model), **settings,
             "ops": {k: graph.count(k) for k in ("shift", "affine", "log1p")}}

@@ -39,9 +39,9 @@ def _model(seed=0, **arch):
     return net, checkpoint.make(net, "network", command="test")
 
 
-@pytest.mark.parametrize("size", [(27, 48), (45, 80)])
-def test_the_numpy_graph_equals_the_contract_frame_of_the_torch_network(size):
-    net, ckpt = _model(boxes=[0, 2, 4], ref_width=48)
+@pytest.mark.parametrize("size,box_passes", [((27, 48), 1), ((45, 80), 1), ((27, 48), 2)])
+def test_the_numpy_graph_equals_the_contract_frame_of_the_torch_network(size, box_passes):
+    net, ckpt = _model(boxes=[0, 2, 4], ref_width=48, passes=box_passes)
     passes = _passes(*size)
     rot, coef = _rotation(1), np.random.default_rng(2).normal(size=(4, 3)) * 0.3 + [[1, 1, 1], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
     g = graph.from_checkpoint(ckpt, size[1])
@@ -62,6 +62,9 @@ def test_the_numpy_graph_equals_the_contract_frame_of_the_torch_network(size):
     np.testing.assert_allclose(out[black], passes["image"][black], rtol=1e-6)
     # the boxes keep their share of a wider image: one doubling more at twice the width
     assert g.meta["boxes"] == ([0, 2, 4] if size[1] == 48 else [1, 3, 5])
+    # one shared chain along x, then each box's own: (passes - 1) more along x, passes along y
+    lv = g.meta["boxes"]
+    assert g.count("shift") == max(lv) + (2 * box_passes - 1) * sum(lv)
 
 
 def test_every_box_is_the_mean_over_its_window_with_zeros_outside():
