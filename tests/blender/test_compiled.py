@@ -115,9 +115,10 @@ def test_a_compiled_copy_renders_without_the_extension_the_frames_of_the_extensi
 def test_setup_refuses_a_model_that_does_not_compile_in_one_line(tmp_path):
     blend = tmp_path / "c.blend"
     run_py(cornell_script(1) + f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})\n")
-    for extra, words in ((("--model", "one_render"), "does not compile into compositor nodes"),
-                         ((), "--compiled needs --model")):
-        p = run_cli("setup", "--blend", str(blend), "--out", str(tmp_path / "o.blend"), "--compiled", *extra,
-                    check=False)
+    for out, extra, words in ((tmp_path / "o.blend", ("--model", "one_render"), "does not compile into compositor nodes"),
+                              (tmp_path / "o.blend", (), "--compiled needs --model"),
+                              (blend, ("--model", "one_render"), "is the --blend file itself"),
+                              (tmp_path / "o.png", ("--model", "one_render"), "must name a .blend file")):
+        p = run_cli("setup", "--blend", str(blend), "--out", str(out), "--compiled", *extra, check=False)
         assert p.returncode == 2 and words in p.stderr and "Traceback" not in p.stderr, p.stderr[-2000:]
         assert not (tmp_path / "o.blend").exists()
