@@ -5,8 +5,8 @@
 ``setup_compiled(scene, model)`` (Set up SSGI's compiled choice and ``cli.py setup --compiled``) makes the scene's
 own render the frame the network reads (EEVEE, ray tracing and fast GI off, no lamp culled, the emitter proxies as
 area lights, the Diffuse Color and Normal passes on: the one render of docs/one_render.md), builds the group and
-stores the per-frame constants in it: the camera's rotation, keyframed on every frame of the scene where it turns,
-and the world's light coefficients. Each graph step is one or a few nodes: vector math for per-pixel work (fused
+stores the per-frame constants in it: the camera's rotation, driven from the scene's camera by drivers of simple
+expressions (no Python at render time), and the world's light coefficients. Each graph step is one or a few nodes: vector math for per-pixel work (fused
 by the compositor), math nodes for log and exp per channel, Translate (nearest, zeros outside) for shifts. A node
 is evaluated on the pixel grid of its first input, and the graph never puts a shifted value first.
 """
@@ -165,33 +165,14 @@ def build_group(graph: cgraph.Graph, params: dict, name: str = GROUP_NAME):
     return tree
 
 
-def set_params(tree, params: dict, frame: int | None = None) -> None:
-    """Store the per-frame constants in the group's param nodes; with ``frame``, keyframed there (constant
-    interpolation: a frame shows its own values)."""
+def set_params(tree, params: dict) -> None:
+    """Store the per-frame constants in the group's param nodes (the camera's are driven: ``drive_camera``)."""
     for name, value in params.items():
         n = tree.nodes.get(PARAM_NODE.format(name))
         if n is None:
             continue
         for i in range(3):
             n.inputs[i].default_value = float(value[i])
-            if frame is not None:
-                n.inputs[i].keyframe_insert("default_value", frame=frame)
-    if frame is not None and tree.animation_data and tree.animation_data.action:
-        for fc in _fcurves(tree.animation_data.action):
-            for k in fc.keyframe_points:
-                k.interpolation = "CONSTANT"
-
-
-def _fcurves(action):
-    """The F-curves of ``action`` (5.0 keeps them in layered actions' channel bags)."""
-    if hasattr(action, "fcurves") and not hasattr(action, "layers"):
-        return list(action.fcurves)
-    out = []
-    for layer in getattr(action, "layers", ()):
-        for strip in layer.strips:
-            for bag in getattr(strip, "channelbags", ()):
-                out += list(bag.fcurves)
-    return out
 
 
 def frame_params(scene) -> dict:
@@ -276,38 +257,36 @@ def setup_compiled(scene, model) -> dict:
     tree, node = _wire(scene, group)
     if old is not None and old.users == 0:
         bpy.data.node_groups.remove(old)
-    keyed = key_frames(scene, group)
+    drivers = drive_camera(scene, group)
     scene.render.use_compositing = True
     # the viewport compositor works in half floats unless told otherwise (F12 always in full): exp and log of light
     # need full
     scene.render.compositor_precision = "FULL"
     return {"tree": tree.name, "node": node.name, "group": group.name, "nodes": len(group.nodes), "width": width,
-            "keyed_frames": keyed, "model": str(model), **settings,
+            "camera_drivers": drivers, "model": str(model), **settings,
             "ops": {k: graph.count(k) for k in ("shift", "affine", "log1p")}}
 
 
-def key_frames(scene, group) -> int:
-    """Keyframe the group's constants on every frame of the scene's range where they differ from the first frame's
-    (a turning camera, another camera from a marker); none for a still camera. Returns the frames keyed."""
-    keep = scene.frame_current
-    first = last = None
-    per_frame = []
-    try:
-        for f in range(scene.frame_start, scene.frame_end + 1):
-            scene.frame_set(f)
-            p = frame_params(scene)
-            per_frame.append((f, p))
-            first = first or p
-            if any(not np.array_equal(p[k], first[k]) for k in p):
-                last = f
-    finally:
-        scene.frame_set(keep)
-    if last is None:
-        set_params(group, first or frame_params(scene))
-        return 0
-    for f, p in per_frame:
-        set_params(group, p, frame=f)
-    return len(per_frame)
+def drive_camera(scene, group) -> int:
+    """Drive the group's camera rotation (``param rot0..2``) from the scene's camera: each value is a driver of simple
+    expression (evaluated without Python, so a file from elsewhere renders it with scripts disabled) reading
+    ``scene.camera.matrix_world``, its column normalised (passes.camera_rotation). It follows the camera's animation,
+    edits made after set-up and cameras switched by markers. Returns the drivers made."""
+    made = 0
+    for i in range(3):
+        node = group.nodes[PARAM_NODE.format(f"rot{i}")]
+        for j in range(3):
+            d = node.inputs[j].driver_add("default_value").driver
+            d.type = "SCRIPTED"
+            for k, name in enumerate("abc"):
+                v = d.variables.new()
+                v.name, v.type = name, "SINGLE_PROP"
+                v.targets[0].id_type = "SCENE"
+                v.targets[0].id = scene
+                v.targets[0].data_path = f"camera.matrix_world[{j}][{k}]"  # (RNA stores it column by column)
+            d.expression = f"{'abc'[i]} / sqrt(a * a + b * b + c * c)"
+            made += 1
+    return made
 
 
 def check_model_arg(model) -> None:

@@ -45,6 +45,10 @@ from ssgi.model.compile import graph as cg
 from ssgi.model.learn import checkpoint
 from ssgi.ssgi_addon.blender import compiled, passes
 info = compiled.setup_compiled(sc, {str(boxmlp_model)!r})
+again = compiled.setup_compiled(sc, {str(boxmlp_model)!r})  # a second set-up replaces the group, adds nothing
+groups = [n for n in sc.compositing_node_group.nodes if n.bl_idname == "CompositorNodeGroup"]
+info["again"] = dict(groups=len(groups), trees=sum(1 for t in bpy.data.node_groups if compiled.LAYOUT_PROP in t),
+                     proxies=again["proxies"], links=len(sc.compositing_node_group.links))
 ims = sc.render.image_settings
 ims.media_type, ims.file_format, ims.color_depth = "MULTI_LAYER_IMAGE", "OPEN_EXR_MULTILAYER", "32"
 bpy.ops.render.render()
@@ -67,6 +71,7 @@ print("RESULT", json.dumps({{k: v for k, v in info.items() if k != "ops"}}))
     assert np.abs(out[..., :3] - img[..., :3]).mean() > 0.01 * img[..., :3].mean()
     # the emissive panel got its area-light proxy, kept in the file; 4 boxes: 14 shifts at 64 px wide
     assert info["proxies"] and info["width"] == 64 and info["nodes"] > 300, info
+    assert info["again"] == dict(groups=1, trees=1, proxies=[], links=4), info["again"]
 
 
 PLAIN = '''
@@ -91,11 +96,11 @@ def _rgb(path):
 
 def test_a_compiled_copy_renders_without_the_extension_the_frames_of_the_extension(boxmlp_model, tmp_path):
     blend = tmp_path / "shot.blend"
-    save_shot("living_room", blend, (64, 36), 2)  # the camera moves: the group's camera turn is keyframed
+    save_shot("living_room", blend, (64, 36), 2)  # the camera moves: drivers turn the group's normals with it
     out = tmp_path / "shot_compiled.blend"
     p = run_cli("setup", "--blend", str(blend), "--out", str(out), "--compiled", "--model", str(boxmlp_model), "--json")
     info = json.loads(p.stdout)
-    assert info["ok"] and info["keyed_frames"] == 2, info
+    assert info["ok"] and info["camera_drivers"] == 9, info
     # a plain Python with bpy: nothing of the extension imported or enabled
     e = dict(os.environ, BLENDER_USER_RESOURCES=_user_dir())
     p = subprocess.run([sys.executable, "-c", PLAIN, str(out), str(tmp_path / "plain_####")], capture_output=True,
