@@ -24,15 +24,6 @@ import _bootstrap  # noqa: F401  (the checkout as package ssgi)
 
 ROOT = Path(__file__).resolve().parent.parent
 FLOOR = 0.01
-PLAIN = '''
-import sys, bpy
-bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
-sc = bpy.context.scene
-ims = sc.render.image_settings
-ims.media_type, ims.file_format, ims.color_depth, ims.color_mode = "IMAGE", "OPEN_EXR", "32", "RGBA"
-sc.render.filepath = sys.argv[2]
-bpy.ops.render.render(write_still=True)
-'''
 
 
 def _run(argv: list[str]) -> None:
@@ -56,6 +47,7 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--out", default=None, help="folder for the files (default: a temporary one)")
     a = ap.parse_args(argv)
     from scenes import artist as A
+    from ssgi.ssgi_addon.blender.compiled import PLAIN_RENDER
 
     size = tuple(int(v) for v in a.size.lower().split("x"))
     out = Path(a.out or tempfile.mkdtemp(prefix="ssgi-compiled-parity-"))
@@ -66,7 +58,7 @@ def main(argv=None) -> list[dict]:
         blend = A.save(A.build(name, size), out / f"{name}.blend")
         compiled = out / f"{name}_compiled.blend"
         _run(cli + ["setup", "--blend", str(blend), "--out", str(compiled), "--compiled", "--model", a.model])
-        _run([sys.executable, "-c", PLAIN, str(compiled), str(out / f"{name}_plain.exr")])
+        _run([sys.executable, "-c", PLAIN_RENDER, str(compiled), str(out / f"{name}_plain.exr")])
         _run(cli + ["render", "--blend", str(blend), "--setup", "--model", a.model, "--out",
                     str(out / f"{name}_ext.exr"), "--working-res", "full", "--temporal", "off"])
         plain, ext = _rgb(out / f"{name}_plain.exr"), _rgb(out / f"{name}_ext.exr")

@@ -26,6 +26,27 @@ LAYOUT_VERSION = 1
 PARAM_NODE = "param {}"
 
 
+# A plain render of a file, for checks and measurements of a compiled set-up: ``python -c PLAIN_RENDER FILE OUT
+# [FIRST LAST]`` opens FILE in bpy (nothing of SSGI imported) and renders OUT (a still; with FIRST LAST the frames,
+# '#' in OUT for the frame number) as 32-bit RGBA OpenEXR; it prints a RESULT line saying whether any SSGI module was
+# loaded and which add-ons were enabled.
+PLAIN_RENDER = """
+import sys, json, bpy
+bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
+sc = bpy.context.scene
+ims = sc.render.image_settings
+ims.media_type, ims.file_format, ims.color_depth, ims.color_mode = "IMAGE", "OPEN_EXR", "32", "RGBA"
+sc.render.filepath = sys.argv[2]
+if len(sys.argv) > 3:
+    sc.frame_start, sc.frame_end = int(sys.argv[3]), int(sys.argv[4])
+    bpy.ops.render.render(animation=True)
+else:
+    bpy.ops.render.render(write_still=True)
+print("RESULT", json.dumps({"ssgi_loaded": any("ssgi" in m for m in sys.modules),
+                            "addons": sorted(bpy.context.preferences.addons.keys())}))
+"""
+
+
 class _Lower:
     """Graph values -> node sockets. A value is a list of (vector socket, channels), three channels a socket."""
 

@@ -74,18 +74,6 @@ print("RESULT", json.dumps({{k: v for k, v in info.items() if k != "ops"}}))
     assert info["again"] == dict(groups=1, trees=1, proxies=[], links=4), info["again"]
 
 
-PLAIN = '''
-import sys, json, bpy
-bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
-sc = bpy.context.scene
-ims = sc.render.image_settings
-ims.media_type, ims.file_format, ims.color_depth, ims.color_mode = "IMAGE", "OPEN_EXR", "32", "RGBA"
-sc.render.filepath = sys.argv[2]
-sc.frame_start, sc.frame_end = 1, 2
-bpy.ops.render.render(animation=True)
-print("RESULT", json.dumps({"ssgi_loaded": any("ssgi" in m for m in sys.modules),
-                            "addons": sorted(bpy.context.preferences.addons.keys())}))
-'''
 
 
 def _rgb(path):
@@ -103,8 +91,9 @@ def test_a_compiled_copy_renders_without_the_extension_the_frames_of_the_extensi
     assert info["ok"] and info["camera_drivers"] == 9, info
     # a plain Python with bpy: nothing of the extension imported or enabled
     e = dict(os.environ, BLENDER_USER_RESOURCES=_user_dir())
-    p = subprocess.run([sys.executable, "-c", PLAIN, str(out), str(tmp_path / "plain_####")], capture_output=True,
-                       text=True, timeout=600, cwd=tmp_path, env=e)
+    from ssgi.ssgi_addon.blender.compiled import PLAIN_RENDER
+    p = subprocess.run([sys.executable, "-c", PLAIN_RENDER, str(out), str(tmp_path / "plain_####"), "1", "2"],
+                       capture_output=True, text=True, timeout=600, cwd=tmp_path, env=e)
     assert p.returncode == 0, clean(p.stderr)[-3000:]
     res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
     assert not res["ssgi_loaded"] and not any("ssgi" in a for a in res["addons"]), res
