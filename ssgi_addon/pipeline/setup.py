@@ -19,9 +19,10 @@ from ...model.errors import UserError
 def setup(scene, model: str | None = None, compiled: bool = False) -> dict:
     """Set up SSGI in ``scene``: the extension's node, or with ``compiled`` the compiled group of ``model``."""
     if compiled:
+        from ...model.cliargs import model_arg
         from ..blender.compiled import check_model_arg, setup_compiled
         check_model_arg(model)
-        return setup_compiled(scene, model)
+        return setup_compiled(scene, model_arg(model))  # (a shipped model's name: its file)
     from ..blender.compositor import setup_scene
     return setup_scene(scene, model)
 

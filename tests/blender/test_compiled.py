@@ -116,3 +116,37 @@ def test_setup_refuses_a_model_that_does_not_compile_in_one_line(tmp_path):
         p = run_cli("setup", "--blend", str(blend), "--out", str(out), "--compiled", *extra, check=False)
         assert p.returncode == 2 and words in p.stderr and "Traceback" not in p.stderr, p.stderr[-2000:]
         assert not (tmp_path / "o.blend").exists()
+
+
+def test_the_set_up_operator_compiles_and_the_cli_sets_up_the_extension_s_node_without_compiled(boxmlp_model, tmp_path):
+    blend = tmp_path / "c.blend"
+    p = run_py(cornell_script(1) + f'''
+import ssgi
+from ssgi.ssgi_addon.blender import compiled
+ssgi.register()
+bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
+try:  # (an operator's error report raises in the bpy module)
+    bpy.ops.ssgi.setup(model="one_render", compiled=True)
+    refused = "not refused"
+except RuntimeError as e:
+    refused = str(e)
+untouched = sc.compositing_node_group is None and sc.eevee.use_raytracing
+ok = bpy.ops.ssgi.setup(model={str(boxmlp_model)!r}, compiled=True)
+tree = sc.compositing_node_group
+print("RESULT", json.dumps({{"refused": refused, "untouched": untouched, "ok": sorted(ok),
+                             "groups": [n.node_tree.name for n in tree.nodes if n.bl_idname == "CompositorNodeGroup"
+                                        and compiled.LAYOUT_PROP in n.node_tree],
+                             "normal_pass": sc.view_layers[0].use_pass_normal, "gi": sc.eevee.use_raytracing}}))
+''')
+    res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
+    assert "does not compile into compositor nodes" in res.pop("refused"), res  # a bad model changes nothing
+    assert res == dict(untouched=True, ok=["FINISHED"], groups=["SSGI compiled"], normal_pass=True, gi=False), res
+    out = tmp_path / "node.blend"
+    run_cli("setup", "--blend", str(blend), "--out", str(out))
+    p = run_py(f'''
+import bpy, json
+from ssgi.ssgi_addon.blender import node
+bpy.ops.wm.open_mainfile(filepath={str(out)!r})
+print("RESULT", json.dumps(len(node.ssgi_nodes(bpy.context.scene.compositing_node_group))))
+''')
+    assert next(l for l in p.stdout.splitlines() if l.startswith("RESULT ")) == "RESULT 1"
