@@ -18,7 +18,6 @@ import bpy
 import numpy as np
 
 from ...model.compile import graph as cgraph
-from ...model.errors import UserError
 
 GROUP_NAME = "SSGI compiled"
 LAYOUT_PROP = "ssgi_compiled"  # ID property of the inner tree: the layout version
@@ -308,9 +307,3 @@ def drive_camera(scene, group) -> int:
             d.expression = f"{'abc'[i]} / sqrt(a * a + b * b + c * c)"
             made += 1
     return made
-
-
-def check_model_arg(model) -> None:
-    if not model:
-        raise UserError("--compiled needs --model M.pt: a boxmlp checkpoint (cli.py train --variant boxmlp; "
-                        "docs/compiled.md)")

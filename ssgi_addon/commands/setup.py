@@ -26,7 +26,8 @@ def register_cli(sub) -> None:
     p.add_argument("--blend", required=True, help="the .blend file (not modified)")
     p.add_argument("--out", required=True, help="the copy to write (.blend)")
     p.add_argument("--model", default=None, type=cliargs.model_arg,
-                   help=f"{cliargs.MODEL_HELP} (--compiled: a boxmlp checkpoint, required)")
+                   help=f"{cliargs.MODEL_HELP} (default: the file's SSGI node's, else its scene's, else default; "
+                        f"--compiled: a boxmlp checkpoint)")
     p.add_argument("--compiled", action="store_true",
                    help="the model as compositor nodes (a plain render shows SSGI, no extension needed)")
     p.add_argument("--scene", default=None, help="scene name (default: the file's active scene)")

@@ -20,9 +20,10 @@ def setup(scene, model: str | None = None, compiled: bool = False) -> dict:
     """Set up SSGI in ``scene``: the extension's node, or with ``compiled`` the compiled group of ``model``."""
     if compiled:
         from ...model.cliargs import model_arg
-        from ..blender.compiled import check_model_arg, setup_compiled
-        check_model_arg(model)
-        return setup_compiled(scene, model_arg(model))  # (a shipped model's name: its file)
+        from ..blender.compiled import setup_compiled
+        from ..blender.node import resolve_model
+        # (a shipped model's name: its file; none: the node's, the scene's or the shipped default, as Set up SSGI's)
+        return setup_compiled(scene, model_arg(model) if model else str(resolve_model(scene, None)))
     from ..blender.compositor import setup_scene
     return setup_scene(scene, model)
 
@@ -32,7 +33,7 @@ class SetupConfig:
     """What ``run`` sets up; the defaults are those of ``cli.py setup``."""
     blend: str  # the .blend file (never written)
     out: str  # the copy to write
-    model: str | None = None  # model checkpoint (compiled: required, a boxmlp one)
+    model: str | None = None  # model checkpoint (None: the file's node's or scene's, else the shipped default)
     compiled: bool = False  # the model as compositor nodes, rendered without the extension
     scene: str | None = None  # scene name (None: the file's active scene)
 
@@ -46,9 +47,6 @@ class SetupConfig:
             raise UserError(f"--out {self.out}: is the --blend file itself; name a copy")
         if out.is_dir():
             raise UserError(f"--out {self.out}: is a folder, not a .blend file")
-        if self.compiled:
-            from ..blender.compiled import check_model_arg
-            check_model_arg(self.model)
         if self.model and not Path(self.model).expanduser().is_file():
             raise UserError(f"--model {self.model}: no such model file")
 

@@ -110,7 +110,7 @@ def test_setup_refuses_a_model_that_does_not_compile_in_one_line(tmp_path):
     blend = tmp_path / "c.blend"
     run_py(cornell_script(1) + f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})\n")
     for out, extra, words in ((tmp_path / "o.blend", ("--model", "one_render"), "does not compile into compositor nodes"),
-                              (tmp_path / "o.blend", (), "--compiled needs --model"),
+                              (tmp_path / "o.blend", (), "ssgi_default.pt: a unet_s network does not compile"),
                               (blend, ("--model", "one_render"), "is the --blend file itself"),
                               (tmp_path / "o.png", ("--model", "one_render"), "must name a .blend file")):
         p = run_cli("setup", "--blend", str(blend), "--out", str(out), "--compiled", *extra, check=False)
@@ -133,13 +133,19 @@ except RuntimeError as e:
 untouched = sc.compositing_node_group is None and sc.eevee.use_raytracing
 ok = bpy.ops.ssgi.setup(model={str(boxmlp_model)!r}, compiled=True)
 tree = sc.compositing_node_group
-print("RESULT", json.dumps({{"refused": refused, "untouched": untouched, "ok": sorted(ok),
+from ssgi.panels import node_panel
+from tests import ui_recorder
+rec = ui_recorder.draw(node_panel.SSGI_PT_node)
+print("RESULT", json.dumps({{"refused": refused, "untouched": untouched, "ok": sorted(ok), "labels": rec.labels(),
+                             "ops": [o for o, _ in rec.operators()],
                              "groups": [n.node_tree.name for n in tree.nodes if n.bl_idname == "CompositorNodeGroup"
                                         and compiled.LAYOUT_PROP in n.node_tree],
                              "normal_pass": sc.view_layers[0].use_pass_normal, "gi": sc.eevee.use_raytracing}}))
 ''')
     res = json.loads(next(l for l in p.stdout.splitlines() if l.startswith("RESULT "))[7:])
     assert "does not compile into compositor nodes" in res.pop("refused"), res  # a bad model changes nothing
+    # the panel says what the compositor holds, and offers both set-ups
+    assert res.pop("labels")[0] == "Compiled: boxmlp.pt" and res.pop("ops") == ["ssgi.setup", "ssgi.setup"]
     assert res == dict(untouched=True, ok=["FINISHED"], groups=["SSGI compiled"], normal_pass=True, gi=False), res
     out = tmp_path / "node.blend"
     run_cli("setup", "--blend", str(blend), "--out", str(out))
