@@ -13,7 +13,6 @@ import bpy
 from ..model import shipped
 from ..model.errors import UserError
 from ..ssgi_addon.blender import node as ssgi_node
-from ..ssgi_addon.blender.compositor import setup_scene
 from ..ssgi_addon.blender.predictor import pass_label
 from ..ssgi_addon.pipeline import farm, render as ssgi_render
 from ..ssgi_addon.runtime import ui_jobs
@@ -57,13 +56,21 @@ class SSGI_OT_setup(bpy.types.Operator):
 
     model: bpy.props.StringProperty(name="Model", subtype="FILE_PATH", default="",
                                     description="Model checkpoint; empty uses the node's, the scene's or the shipped one")
+    compiled: bpy.props.BoolProperty(name="Compiled", default=False,
+                                     description="The model (a boxmlp checkpoint) as Blender's own compositor nodes: "
+                                                 "plain F12 and render farms show SSGI without the extension")
 
     def execute(self, context):
+        from ..ssgi_addon.pipeline.setup import setup
         try:
-            info = setup_scene(context.scene, self.model or None)
+            info = setup(context.scene, self.model or None, self.compiled)
         except UserError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
+        if self.compiled:
+            self.report({"INFO"}, f"SSGI compiled into {info['nodes']} nodes of group {info['group']!r} in "
+                                  f"{info['tree']!r}; a plain render shows it")
+            return {"FINISHED"}
         extra = f"; enabled {', '.join(pass_label(f) for f in info['enabled_passes'])}" if info["enabled_passes"] else ""
         self.report({"INFO"}, f"SSGI set up in {info['tree']!r}{extra}")
         return {"FINISHED"}

@@ -2,9 +2,11 @@
 They only draw: the node's model, what the prediction image holds, the render buttons and progress."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import bpy
 
-from ..ssgi_addon.blender import node as ssgi_node
+from ..ssgi_addon.blender import compiled, node as ssgi_node
 from ..ssgi_addon.runtime import jobs, ui_jobs
 from . import RenderPropertiesPanel, draw_error, draw_job
 
@@ -13,9 +15,16 @@ def _draw(layout, context):
     scene = context.scene
     tree = scene.compositing_node_group
     nodes = ssgi_node.ssgi_nodes(tree)
+    groups = [n.node_tree for n in (tree.nodes if tree is not None else ())
+              if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None and compiled.LAYOUT_PROP in n.node_tree]
+    if groups:  # a compiled set-up (docs/compiled.md): Blender's own render shows it, nothing to drive here
+        layout.label(text=f"Compiled: {Path(groups[0].get('ssgi_model', '?')).name}", icon="CHECKMARK")
+        layout.label(text="F12 and farms render it without the extension")
     if not nodes:
-        layout.label(text="No SSGI node in the compositor", icon="INFO")
+        if not groups:
+            layout.label(text="No SSGI node in the compositor", icon="INFO")
         layout.operator("ssgi.setup", icon="NODETREE")
+        layout.operator("ssgi.setup", text="Set up SSGI as Nodes", icon="NODE_COMPOSITING").compiled = True
         return
     active = tree.nodes.active if tree is not None else None
     node = active if active is not None and ssgi_node.is_ssgi_node(active) else nodes[0]

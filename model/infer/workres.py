@@ -411,6 +411,9 @@ class WorkingResolution:
         return getattr(self.inner, "inputs", self.inner.spec)
 
     def factor(self, width: int, height: int) -> int:
+        # a boxmlp network (compositor nodes, docs/compiled.md) costs little at full resolution: "auto" is full there
+        if self.setting == AUTO and (getattr(self.inner, "arch", None) or {}).get("backbone") == "boxmlp":
+            return 1
         return factor_for(self.setting, width, height, ch.one_render(tuple(self.inner.spec)))
 
     def predict(self, groups: dict, tile: int | None = -1) -> np.ndarray:

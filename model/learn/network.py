@@ -196,9 +196,85 @@ class PixelLinear(nn.Module):
         return o
 
 
+def box_levels(box: int, width: int, ref_width: int) -> int:
+    """The doubling steps of a box of 2**``box`` pixels at ``ref_width``, for an image ``width`` pixels wide: the
+    same share of the image (the power of two nearest to it), at least 0."""
+    return max(0, int(round(box + math.log2(max(1, width) / max(1, ref_width)))))
+
+
+def box_shift(level: int) -> int:
+    """The shift of doubling step ``level`` (0, 1, ...): 1, -2, 4, -8, ...; the alternating signs keep the box
+    nearly centred on its pixel ({-5..10} after four steps)."""
+    return (1 << level) * (1 if level % 2 == 0 else -1)
+
+
+def _shift(a: torch.Tensor, dx: int, dy: int) -> torch.Tensor:
+    """Blender's Translate node by (dx, dy) pixels (x right, y up), zeros outside: out[r, c] = a[r + dy, c - dx]."""
+    h, w = a.shape[-2:]
+    p = F.pad(a, (max(dx, 0), max(-dx, 0), max(-dy, 0), max(dy, 0)))
+    y0, x0 = max(-dy, 0) + dy, max(dx, 0) - dx
+    return p[..., y0:y0 + h, x0:x0 + w]
+
+
+class BoxMLP(nn.Module):
+    """A per-pixel MLP (1x1 convs, ReLU) over the inputs and the log1p of box means of the GI-off image
+    (``eevee_combined``, linear) at a few scales: every box is a chain of shifted adds (zeros outside the image),
+    every layer a per-pixel multiply-add, so the whole network compiles into Blender's compositor nodes
+    (model/compile). ``boxes``: each box's size as a power of two at ``ref_width`` pixels wide (the width it was
+    trained at); at another width the boxes keep their share of the image (``box_levels``). ``passes``: each box
+    filter applied that many times along each axis (2: a tent, whose light fades instead of ending in a square
+    edge). Train on whole images (a crop's boxes differ from the image's near its edges)."""
+
+    def __init__(self, in_ch: int, spec, widths=(24, 24), boxes=(1, 3, 5, 7), ref_width=240, passes=1,
+                 head="residual_combined"):
+        super().__init__()
+        lay = layout(spec)
+        if "eevee_combined" not in lay:
+            raise UserError(f"boxmlp needs eevee_combined in the input spec {','.join(spec)}")
+        if not widths or min(widths) < 1 or any(b < 0 for b in boxes):
+            raise UserError(f"boxmlp needs widths >= 1 and boxes >= 0 (got {widths}, {boxes})")
+        self.comb = (lay["eevee_combined"].start, lay["eevee_combined"].stop)
+        self.boxes, self.ref_width, self.passes = [int(b) for b in boxes], int(ref_width), int(passes)
+        if self.passes < 1:
+            raise UserError(f"boxmlp needs passes >= 1 (got {passes})")
+        layers, cin = [], in_ch + 3 * len(self.boxes)
+        for w in widths:
+            layers += [nn.Conv2d(cin, w, 1), nn.ReLU()]
+            cin = w
+        layers.append(nn.Conv2d(cin, 3, 1))
+        self.mlp = nn.Sequential(*layers)
+        self.head = Head(head, spec)
+        self.multiple = 1
+        self.receptive_field = 1 << 20  # whole-image boxes: one tile, never tiled
+
+    def box_means(self, x: torch.Tensor) -> list[torch.Tensor]:
+        """log1p of each box's mean of the linear GI-off image (zeros outside the image)."""
+        c = torch.expm1(x[:, self.comb[0]:self.comb[1]])
+        levels = [box_levels(b, x.shape[-1], self.ref_width) for b in self.boxes]
+        out, bx = [], c
+        for k in range(max(levels) + 1):
+            if k in levels:
+                by = bx
+                for _ in range(self.passes - 1):
+                    for j in range(k):
+                        by = by + _shift(by, box_shift(j), 0)
+                for _ in range(self.passes):
+                    for j in range(k):
+                        by = by + _shift(by, 0, box_shift(j))
+                out.append(torch.log1p(torch.relu(by * (1.0 / (1 << (2 * k * self.passes))))))
+            if k < max(levels):
+                bx = bx + _shift(bx, box_shift(k), 0)
+        return [out[sorted(set(levels)).index(lv)] for lv in levels]
+
+    def forward(self, x):
+        o = self.mlp(torch.cat([x] + self.box_means(x), dim=1))
+        return self.head(o, x)
+
+
 BACKBONES = {"fssgi": (FSSGI, ("width", "pre", "post", "head")),
              "unet": (UNet, ("widths", "convs", "head")),
-             "linear": (PixelLinear, ("space",))}
+             "linear": (PixelLinear, ("space",)),
+             "boxmlp": (BoxMLP, ("widths", "boxes", "ref_width", "passes", "head"))}
 
 
 def target_of(arch: dict) -> str:

@@ -15,6 +15,9 @@ VARIANTS: dict[str, dict] = {
     # a four-level encoder-decoder: the sizes of cli.py fit's ladder (model/learn/fit.py LADDER) override its
     # widths and convs
     "unet": dict(backbone="unet", widths=[16, 32, 48, 64], convs=[1, 2, 2, 2], head="residual"),
+    # a per-pixel MLP over the inputs and box means of EEVEE's GI-off image: compiles into compositor nodes
+    # (model/compile, docs/compiled.md)
+    "boxmlp": dict(backbone="boxmlp", widths=[24, 24], boxes=[1, 3, 5, 7], ref_width=240, head="residual_combined"),
     # the closed-form baseline (baseline.py); not trained by gradient descent
     "linear": dict(backbone="linear", space="linear"),
 }

@@ -327,6 +327,32 @@ def _hits_other(scene, dg, o, origin, ray, distance: float) -> bool:
     return True
 
 
+def make_proxies(scene, shadows: bool = True, sides: str = "both", made: list | None = None) -> list:
+    """The area lights ``emitter_proxies`` stands in for the planar emitters, linked to ``scene``'s collection and
+    left there (a compiled set-up keeps them in its file); each is appended to ``made`` as it is made."""
+    import math
+
+    from mathutils import Matrix
+    made = [] if made is None else made
+    flip = Matrix.Rotation(math.pi, 3, "X")
+    for o, strength, colour in planar_emitters(scene):
+        d = o.dimensions
+        rot = o.matrix_world.to_3x3().normalized()
+        front, back = open_sides(scene, o) if sides == "open" else (True, True)
+        # an area light shines along its -Z: first the plane's front (+Z); no proxy for a side facing a surface
+        for side in [s for s, is_open in ((rot @ flip, front), (rot, back)) if is_open]:
+            li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "AREA")
+            li.shape, li.size, li.size_y = "RECTANGLE", float(d.x), float(d.y)
+            li.energy = float(math.pi * strength * d.x * d.y)
+            li.color = colour
+            li.use_shadow = bool(shadows)
+            ob = bpy.data.objects.new(li.name, li)
+            scene.collection.objects.link(ob)
+            ob.matrix_world = Matrix.Translation(o.matrix_world.translation) @ side.to_4x4()
+            made.append(ob)
+    return made
+
+
 @contextlib.contextmanager
 def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     """Stand an area light in for each planar emitter (``planar_emitters``) while the block runs, and remove them
@@ -341,27 +367,9 @@ def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     Cycles does. Measured on the artist test set's Cornell box with its emissive panel (docs/fit.md): the
     ceiling of a diffuse-part model (Cycles' diffuse part + EEVEE's rest) rose from 29.4 to 34.5 dB on
     withheld frames. Yields the proxy objects."""
-    import math
-
-    from mathutils import Matrix
     made = []
-    flip = Matrix.Rotation(math.pi, 3, "X")
     try:
-        for o, strength, colour in planar_emitters(scene):
-            d = o.dimensions
-            rot = o.matrix_world.to_3x3().normalized()
-            front, back = open_sides(scene, o) if sides == "open" else (True, True)
-            # an area light shines along its -Z: first the plane's front (+Z); no proxy for a side facing a surface
-            for side in [s for s, is_open in ((rot @ flip, front), (rot, back)) if is_open]:
-                li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "AREA")
-                li.shape, li.size, li.size_y = "RECTANGLE", float(d.x), float(d.y)
-                li.energy = float(math.pi * strength * d.x * d.y)
-                li.color = colour
-                li.use_shadow = bool(shadows)
-                ob = bpy.data.objects.new(li.name, li)
-                scene.collection.objects.link(ob)
-                ob.matrix_world = Matrix.Translation(o.matrix_world.translation) @ side.to_4x4()
-                made.append(ob)
+        make_proxies(scene, shadows, sides, made)
         yield made
     finally:
         for ob in made:

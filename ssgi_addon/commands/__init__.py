@@ -11,7 +11,7 @@ import sys
 # the command modules, in the order of ``cli.py --help``, and the subcommands each adds
 COMMANDS = (("info", ("info",)), ("randomize", ("randomize",)), ("bake", ("bake",)),
             ("dataset", ("verify", "merge", "preview")), ("demo", ("demo",)),
-            ("train", ("train", "baseline", "predict", "export", "curves", "bench")), ("render", ("render",)),
+            ("train", ("train", "baseline", "predict", "export", "curves", "bench")), ("render", ("render",)), ("setup", ("setup",)),
             ("fit", ("fit",)), ("report", ("report",)))
 BLENDER_MODULES = frozenset({"bpy", "_bpy", "bmesh", "mathutils", "gpu", "bpy_extras", "addon_utils"})
 

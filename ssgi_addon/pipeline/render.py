@@ -228,7 +228,9 @@ class RenderSession:
 
         # (a shot's lightmap and reflection map read each pixel's own normal, where the geometric normals of a
         # smooth-shaded mesh would show its polygons: with either, the frame keeps EEVEE's Normal pass)
-        normals = {"normals": "pass"} if self.lightmap is not None or self.reflmap is not None else {}
+        # (and a boxmlp network reads the Normal pass, as its compositor nodes do: docs/compiled.md)
+        compiled = (getattr(self.predictor, "arch", None) or {}).get("backbone") == "boxmlp"
+        normals = {"normals": "pass"} if self.lightmap is not None or self.reflmap is not None or compiled else {}
         groups = passes.render_gbuffer(self.scene, self.groups, samples=self.samples, rest_samples=self.samples,
                                        **(self.proxy_options | normals | self.pass_options))
         missing = [g for g in self.groups if g not in groups]

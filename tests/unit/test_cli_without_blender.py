@@ -32,13 +32,14 @@ def test_bpy_is_hidden_here():
 def test_help_lists_every_subcommand_and_marks_those_that_need_blender():
     out = _cli("--help").stdout
     for name in ("info", "randomize", "bake", "verify", "merge", "preview", "demo", "train", "predict", "export",
-                 "render", "fit", "report"):
+                 "render", "setup", "fit", "report"):
         assert f"    {name}" in out, name
     assert out.count("needs Blender") >= 2  # randomize and bake import bpy to build their options
 
 
 @pytest.mark.parametrize("argv", [("bake", "--out", "x", "--count", "1"), ("render", "--blend", "a.blend"),
-                                  ("demo", "--out", "x"), ("randomize", "--seed", "1", "--out", "r.blend")])
+                                  ("demo", "--out", "x"), ("randomize", "--seed", "1", "--out", "r.blend"),
+                                  ("setup", "--blend", "a.blend", "--out", "b.blend", "--compiled")])
 def test_a_blender_command_says_what_to_install_in_one_line(argv):
     p = _cli(*argv, "--json", check=False)
     assert p.returncode == 2, (p.returncode, p.stderr[-2000:])
