@@ -206,19 +206,24 @@ def render_width(scene) -> int:
     return max(1, int(scene.render.resolution_x * scene.render.resolution_percentage / 100))
 
 
-def one_render_settings(scene) -> dict:
+def one_render_settings(scene, proxies: dict | None = None) -> dict:
     """Make the scene's own render the frame a compiled model reads (persistent): EEVEE, ray tracing and fast GI off,
-    no lamp culled, the emitter proxies (passes.ONE_RENDER_SETTINGS) as area lights of the file, the Diffuse Color
-    and Normal passes on, and EEVEE's shadows off where nothing can cast one (the same image)."""
+    no lamp culled, the emitter proxies as lights of the file (``proxies``: the model's, passes.recorded_proxy_options;
+    else passes.ONE_RENDER_SETTINGS'), the Diffuse Color and Normal passes on, and EEVEE's shadows off where nothing
+    can cast one (the same image)."""
     from . import direct_light, passes
+
+    opts = {k: v for k, v in (proxies or {}).items() if v is not None}
+    one = passes.ONE_RENDER_SETTINGS
 
     scene.render.engine = "BLENDER_EEVEE"
     scene.eevee.use_raytracing = scene.eevee.use_fast_gi = False
     passes.no_light_culled(scene)
     made = []
     if not any(o.name.startswith("ssgi_proxy_") for o in scene.objects):
-        direct_light.make_proxies(scene, passes.ONE_RENDER_SETTINGS["proxy_shadows"],
-                                  passes.ONE_RENDER_SETTINGS["proxy_sides"], made)
+        direct_light.make_proxies(scene, opts.get("proxy_shadows", one["proxy_shadows"]),
+                                  opts.get("proxy_sides", one["proxy_sides"]), made,
+                                  opts.get("proxy_shapes", one["proxy_shapes"]))
     vl = scene.view_layers[0]
     vl.use_pass_diffuse_color = vl.use_pass_normal = True
     if passes.casts_no_shadow(scene):
@@ -268,7 +273,7 @@ def setup_compiled(scene, model) -> dict:
     ckpt = checkpoint.load(model)
     width = render_width(scene)
     graph = cgraph.from_checkpoint(ckpt, width, path=model)
-    settings = one_render_settings(scene)
+    settings = one_render_settings(scene, passes.recorded_proxy_options(ckpt))
     old = next((n.node_tree for n in (scene.compositing_node_group.nodes if scene.compositing_node_group else ())
                 if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None and LAYOUT_PROP in n.node_tree), None)
     group = build_group(graph, frame_params(scene))

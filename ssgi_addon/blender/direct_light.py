@@ -271,6 +271,79 @@ def planar_emitters(scene) -> list[tuple]:
     return out
 
 
+# A mesh emitter longer than this many times its thickness is a tube or strip (a neon tube, a light bar): its proxy is
+# a row of sphere lights along its length (``solid_emitters``); shorter ones (an orb, a lamp shade) get one
+TUBE_RATIO = 4.0
+TUBE_LIGHTS_MAX = 8  # sphere lights along a tube at most
+
+
+def _world_area(o, dg) -> tuple[float, bool]:
+    """(surface area in m^2 of ``o``'s evaluated mesh in world space, whether the mesh is closed: every edge shared
+    by two faces)."""
+    ev = o.evaluated_get(dg)
+    me = ev.to_mesh()
+    try:
+        me.calc_loop_triangles()
+        n = len(me.vertices)
+        co = np.empty(n * 3, np.float32)
+        me.vertices.foreach_get("co", co)
+        co = co.reshape(n, 3).astype(np.float64)
+        m = np.array(ev.matrix_world, np.float64)
+        co = co @ m[:3, :3].T + m[:3, 3]
+        t = np.empty(len(me.loop_triangles) * 3, np.int32)
+        me.loop_triangles.foreach_get("vertices", t)
+        t = t.reshape(-1, 3)
+        area = 0.5 * float(np.linalg.norm(np.cross(co[t[:, 1]] - co[t[:, 0]], co[t[:, 2]] - co[t[:, 0]]), axis=1).sum())
+        edge = np.empty(len(me.loops), np.int32)
+        me.loops.foreach_get("edge_index", edge)
+        faces_per_edge = np.bincount(edge, minlength=len(me.edges))  # each face uses each of its edges once
+        closed = bool(len(me.edges)) and bool((faces_per_edge == 2).all())
+        return area, closed
+    finally:
+        ev.to_mesh_clear()
+
+
+def solid_emitters(scene) -> list[tuple]:
+    """[(object, strength, colour)] of the rendered mesh objects with one material slot that emit a constant light
+    (``_constant_emission``) and are not planar (``planar_emitters``): orbs, lamp shades, neon tubes, boxes."""
+    flat = {o.name for o, _s, _c in planar_emitters(scene)}
+    out = []
+    for o in scene.objects:
+        if o.type != "MESH" or o.hide_render or len(o.material_slots) != 1 or o.name in flat:
+            continue
+        if max(o.dimensions) <= 0:
+            continue
+        e = _constant_emission(o.material_slots[0].material)
+        if e is not None and e[0] > 0 and max(e[1]) > 0:
+            out.append((o, *e))
+    return out
+
+
+def solid_proxy_lights(o, strength: float, colour, dg) -> list[tuple]:
+    """[(world position, radius, power W)] of the sphere lights standing in for the non-planar emitter ``o``:
+    power ``pi x strength x area`` in all (a Lambertian surface of that radiance; an open mesh, such as a lamp shade,
+    gives off light from both sides of its faces: twice that), one sphere light at the centre of a compact emitter
+    (radius: half its mean size), or a row of up to ``TUBE_LIGHTS_MAX`` along the long axis of a tube (radius: half
+    their spacing, so that the row lights a nearby wall smoothly). A point light of power P and radius r is a
+    sphere of radiance P / (4 pi^2 r^2): the same power as the emitter's surface."""
+    import math
+
+    from mathutils import Vector
+    area, closed = _world_area(o, dg)
+    power = math.pi * strength * area * (1.0 if closed else 2.0)
+    d = o.dimensions
+    m = o.matrix_world
+    centre = m @ (0.125 * sum((Vector(c) for c in o.bound_box), Vector()))
+    k = max(range(3), key=lambda i: d[i])
+    long, thick = d[k], max(d[i] for i in range(3) if i != k)
+    if long <= TUBE_RATIO * max(thick, 1e-6):
+        return [(centre, 0.5 * sum(d) / 3.0, power)]
+    n = min(TUBE_LIGHTS_MAX, max(2, math.ceil(long / (2.0 * max(thick, 1e-6)))))
+    axis = (m.to_3x3() @ Vector([1.0 if i == k else 0.0 for i in range(3)])).normalized() * long
+    step = 1.0 / n
+    return [(centre + axis * ((i + 0.5) * step - 0.5), 0.5 * long * step, power / n) for i in range(n)]
+
+
 # A side of a planar emitter that faces a surface closer than this fraction of the emitter's larger side, at its
 # centre and near each corner, gets no proxy (``open_sides``): a panel hung just under a ceiling gives off its back
 # light into the gap, where no camera sees it (the artist test set's Cornell panel hangs 2 mm under the ceiling, 0.4 % of its
@@ -327,9 +400,11 @@ def _hits_other(scene, dg, o, origin, ray, distance: float) -> bool:
     return True
 
 
-def make_proxies(scene, shadows: bool = True, sides: str = "both", made: list | None = None) -> list:
-    """The area lights ``emitter_proxies`` stands in for the planar emitters, linked to ``scene``'s collection and
-    left there (a compiled set-up keeps them in its file); each is appended to ``made`` as it is made."""
+def make_proxies(scene, shadows: bool = True, sides: str = "both", made: list | None = None,
+                 shapes: str = "planar") -> list:
+    """The lights ``emitter_proxies`` stands in for the emitters (area lights for the planar ones; with ``shapes``
+    "all" sphere lights for the others too), linked to ``scene``'s collection and left there (a compiled set-up
+    keeps them in its file); each is appended to ``made`` as it is made."""
     import math
 
     from mathutils import Matrix
@@ -350,11 +425,27 @@ def make_proxies(scene, shadows: bool = True, sides: str = "both", made: list | 
             scene.collection.objects.link(ob)
             ob.matrix_world = Matrix.Translation(o.matrix_world.translation) @ side.to_4x4()
             made.append(ob)
+    if shapes == "all":
+        from .surround import _depsgraph
+        dg = _depsgraph(scene)
+        for o, strength, colour in solid_emitters(scene):
+            for pos, radius, power in solid_proxy_lights(o, strength, colour, dg):
+                li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "POINT")
+                li.shadow_soft_size = float(radius)
+                li.energy = float(power)
+                li.color = colour
+                li.use_shadow = bool(shadows)
+                ob = bpy.data.objects.new(li.name, li)
+                scene.collection.objects.link(ob)
+                ob.location = pos
+                made.append(ob)
+    elif shapes != "planar":
+        raise ValueError(f"proxy shapes {shapes!r}: 'planar' or 'all'")
     return made
 
 
 @contextlib.contextmanager
-def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
+def emitter_proxies(scene, shadows: bool = True, sides: str = "both", shapes: str = "planar"):
     """Stand an area light in for each planar emitter (``planar_emitters``) while the block runs, and remove them
     after; with ``shadows`` False the proxies cast no shadow (the one render's, passes.ONE_RENDER_SETTINGS:
     their shadows cost the Cornell shot's 960x540 frame 0.88 s of 10.87 on Mesa, docs/one_render.md). EEVEE lights nothing from an emissive mesh off screen (its ray tracing sees only the screen), so in
@@ -366,10 +457,12 @@ def emitter_proxies(scene, shadows: bool = True, sides: str = "both"):
     that radiance); its specular factor 1, so that glossy surfaces and mirrors show the panel's highlight as
     Cycles does. Measured on the artist test set's Cornell box with its emissive panel (docs/fit.md): the
     ceiling of a diffuse-part model (Cycles' diffuse part + EEVEE's rest) rose from 29.4 to 34.5 dB on
-    withheld frames. Yields the proxy objects."""
+    withheld frames. With ``shapes`` "all", the other emitters of constant light (``solid_emitters``: orbs, lamp
+    shades, neon tubes) get sphere lights too (``solid_proxy_lights``); "planar": only the planar ones. Yields the
+    proxy objects."""
     made = []
     try:
-        make_proxies(scene, shadows, sides, made)
+        make_proxies(scene, shadows, sides, made, shapes)
         yield made
     finally:
         for ob in made:

@@ -49,8 +49,12 @@ REST_LIGHT_GROUPS = DIFFUSE_LIGHT_GROUPS + ("eevee_combined",)
 # noise on; the network and the shot's lightmap put the shadows back: withheld frames 38.15 dB unshadowed against
 # 37.79 shadowed (same run, same command). Only the sides of a planar emitter facing open space get a proxy
 # (direct_light.open_sides: the Cornell panel, 2 mm under the ceiling, gets one proxy, not two); the rest render of
-# the other models has one on both sides. A model whose bake recorded other proxies gets those (recorded_proxy_options).
-ONE_RENDER_SETTINGS = {"proxy_shadows": False, "proxy_sides": "open"}
+# the other models has one on both sides. Emissive meshes that are not planar (orbs, lamp shades, neon tubes) get
+# sphere lights (direct_light.solid_proxy_lights): EEVEE's GI-off render gave a floor under an on-screen orb and tube
+# about 60 % of Cycles' light, with the stand-ins within 2 % (tests/blender/test_solid_emitter_proxies.py); the same
+# 171 artist rooms re-rendered with them trained a model 3.4 dB better on the artist test set in the same 7 minutes
+# (docs/one_render.md). A model whose bake recorded other proxies gets those (recorded_proxy_options).
+ONE_RENDER_SETTINGS = {"proxy_shadows": False, "proxy_sides": "open", "proxy_shapes": "all"}
 
 
 def _recorded_proxies(meta: dict) -> dict | None:
@@ -76,12 +80,22 @@ def recorded_proxy_sides(meta: dict) -> str | None:
     return None if one is None else str(one.get("emitter_proxy_sides", "both"))
 
 
+def recorded_proxy_shapes(meta: dict) -> str | None:
+    """Which emitters got a proxy in the one render a model was trained on ("planar" / "all",
+    ``direct_light.emitter_proxies``), from its checkpoint's data; None for a model not trained on a one render with
+    proxies. Models baked before the setting was recorded had proxies for the planar emitters only."""
+    one = _recorded_proxies(meta)
+    return None if one is None else str(one.get("emitter_proxy_shapes", "planar"))
+
+
 def recorded_proxy_options(meta: dict) -> dict:
     """The ``render_gbuffer`` keywords that render a model's frames with the emitter proxies its bake had
-    (``proxy_shadows``, ``proxy_sides``); {} for a model not trained on a one render with proxies."""
+    (``proxy_shadows``, ``proxy_sides``, ``proxy_shapes``); {} for a model not trained on a one render with
+    proxies."""
     if _recorded_proxies(meta) is None:
         return {}
-    return {"proxy_shadows": recorded_proxy_shadows(meta), "proxy_sides": recorded_proxy_sides(meta)}
+    return {"proxy_shadows": recorded_proxy_shadows(meta), "proxy_sides": recorded_proxy_sides(meta),
+            "proxy_shapes": recorded_proxy_shapes(meta)}
 
 
 # groups only the artist-settings render gives, whatever the samples: its Glossy Color pass (gloss: a shot's
@@ -544,7 +558,7 @@ def _tree_reads_pass(scene, name: str) -> bool:
 
 
 def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = None, proxies: bool = False,
-                proxy_shadows: bool = True, proxy_sides: str = "both", rest: bool = True,
+                proxy_shadows: bool = True, proxy_sides: str = "both", proxy_shapes: str = "planar", rest: bool = True,
                 normals_from_depth: bool = False, skip_unused_shadows: bool = True, skip_empty_emission: bool = True):
     """EEVEE's own render of ``scene`` at its own settings (its samples unless ``samples``, its ray tracing and
     fast GI as set, its world, lights and probes): (rest HxWx3, Combined HxWx4), and with ``groups`` (of
@@ -565,7 +579,8 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
     reflections and transmission see the light the emitters cast (without, EEVEE lights nothing from an emissive mesh
     off screen, and its reflections of the walls a panel lights were dark); without, the render is EEVEE's own.
     ``proxy_shadows`` False: the proxies cast no shadow; ``proxy_sides`` "open": a proxy only for the sides of an
-    emitter that face open space (``ONE_RENDER_SETTINGS``). ``rest`` False: the render writes only
+    emitter that face open space (``ONE_RENDER_SETTINGS``); ``proxy_shapes`` "all": the non-planar emitters get
+    sphere lights too (``direct_light.emitter_proxies``). ``rest`` False: the render writes only
     the passes of ``groups`` (no Diffuse Color or Diffuse Direct for a rest) and the first item is None; with
     ``groups`` holding ``eevee_combined`` (that render's Combined RGB) and not ``eevee_local``, the render of a
     ref_combined model's frame, which needs no Diffuse Direct pass. ``normals_from_depth`` with ``groups`` holding
@@ -579,7 +594,8 @@ def render_rest(scene, samples: int | None = None, groups=(), gi: bool | None = 
         if g not in SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS:
             raise ValueError(f"group {g!r} does not come from the artist-settings render; those are: "
                              f"{SHARED_GROUPS + REST_LIGHT_GROUPS + REST_ONLY_GROUPS + EXTRA_GROUPS}")
-    with _settings_kept(scene), (direct_light.emitter_proxies(scene, proxy_shadows, proxy_sides) if proxies else contextlib.nullcontext()):
+    with _settings_kept(scene), (direct_light.emitter_proxies(scene, proxy_shadows, proxy_sides, proxy_shapes) if proxies
+                                           else contextlib.nullcontext()):
         scene.render.engine = "BLENDER_EEVEE"
         if samples:
             scene.eevee.taa_render_samples = int(samples)
@@ -649,7 +665,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
                    rest_samples: int | None = None, merge: bool = True,
                    raster_samples: int | None = None, proxies: bool = True,
                    proxy_shadows: bool | None = None, proxy_sides: str | None = None,
-                   normals: str | None = None, skip_unused_shadows: bool = True,
+                   proxy_shapes: str | None = None, normals: str | None = None, skip_unused_shadows: bool = True,
                    skip_empty_emission: bool = True) -> dict[str, np.ndarray]:
     """Render EEVEE's direct-only G-buffer: ``{group: HxWxC float32}``, top row first, normals in camera space.
     The world lights nothing; with ``keep_sky`` the Combined pass (``eevee``) still shows it where nothing is
@@ -668,7 +684,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     rest render stands area lights in for planar emitters (``render_rest``); ``proxy_shadows``: whether they cast
     shadows (None: ``ONE_RENDER_SETTINGS``' for a one-render model, else True; a model's own is
     ``recorded_proxy_shadows``); ``proxy_sides``: which sides of an emitter get one (None: ``ONE_RENDER_SETTINGS``'
-    for a one-render model, else "both"; a model's own is ``recorded_proxy_sides``). ``normals``: "pass" (EEVEE's
+    for a one-render model, else "both"; a model's own is ``recorded_proxy_sides``); ``proxy_shapes``: which emitters
+    get one, "planar" or "all" (None: ``ONE_RENDER_SETTINGS``' for a one-render model, else "planar"; a model's own is
+    ``recorded_proxy_shapes``). ``normals``: "pass" (EEVEE's
     Normal pass) or "depth" (the geometric normals from the Z pass, where the normal and the depth come from the
     artist-settings render: ``render_rest(normals_from_depth=True)``); None: "depth" for a one-render model's groups,
     else "pass". ``skip_unused_shadows``, ``skip_empty_emission``: the savings of ``_render`` and ``render_rest``
@@ -692,6 +710,9 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     shadowed = bool(proxy_shadows) if proxy_shadows is not None else (ONE_RENDER_SETTINGS["proxy_shadows"] if one
                                                                         else True)
     sides = proxy_sides or (ONE_RENDER_SETTINGS["proxy_sides"] if one else "both")
+    shapes = proxy_shapes or (ONE_RENDER_SETTINGS["proxy_shapes"] if one else "planar")
+    if shapes not in ("planar", "all"):
+        raise ValueError(f"proxy_shapes {shapes!r}: 'planar' or 'all'")
     normals = normals or ("depth" if one else "pass")
     if normals not in ("pass", "depth"):
         raise ValueError(f"normals {normals!r}: 'pass' or 'depth'")
@@ -731,7 +752,7 @@ def render_gbuffer(scene, groups=None, samples: int = 1, keep_sky: bool = True,
     need_rest = not one or "rest" in groups or any(g in DIFFUSE_LIGHT_GROUPS for g in groups)
     if with_rest:
         made = render_rest(scene, rest_samples, groups=rest_groups, gi=gi, proxies=proxied, proxy_shadows=shadowed,
-                           proxy_sides=sides, rest=need_rest, normals_from_depth=normals == "depth",
+                           proxy_sides=sides, proxy_shapes=shapes, rest=need_rest, normals_from_depth=normals == "depth",
                            skip_unused_shadows=skip_unused_shadows, skip_empty_emission=skip_empty_emission)
         out["beauty"] = made[1]
         if made[0] is not None:

@@ -62,6 +62,7 @@ def _settings(kind, size, ref_samples, denoise, eevee_samples, first_seed=None, 
                                     "kind": ONE_RENDER_KIND, "emitter_proxies": True,
                                     "emitter_proxy_shadows": one["proxy_shadows"],
                                     "emitter_proxy_sides": one["proxy_sides"],
+                                    "emitter_proxy_shapes": one["proxy_shapes"],
                                     "groups_from_it": ["eevee_combined", "rest", *passes.SHARED_GROUPS,
                                                        "eevee_local", "gloss"],
                                     "rest": REST_MODE}

@@ -248,7 +248,7 @@ class ReportRun:
             want = tuple(dict.fromkeys(g for p in ones for g in ch.required_groups(tuple(p.spec)) + ("depth", "normal")
                                        + needs(p.target)))
             recorded = [passes.recorded_proxy_options(getattr(p, "meta", None) or {}) for p in ones]
-            agreed = {k: vs.pop() for k in ("proxy_shadows", "proxy_sides")
+            agreed = {k: vs.pop() for k in ("proxy_shadows", "proxy_sides", "proxy_shapes")
                       if len(vs := {r[k] for r in recorded if k in r}) == 1}
             out[light], secs[light] = _timed(passes.render_gbuffer, scene, want, samples=samples,
                                              rest_samples=samples, **agreed)

@@ -75,4 +75,4 @@ def test_the_one_render_call_makes_one_render_with_gi_off_and_proxies_on_and_put
     sd = res["sides"]
     assert sd["default"] == "open" and sd["vs_own_both"] <= 1e-6, sd
     assert sd["max_diff"] > 0.01 and sd["frac_diff"] < 0.05, sd
-    assert res["recorded"] == [{"proxy_shadows": True, "proxy_sides": "both"}, {}], res["recorded"]
+    assert res["recorded"] == [{"proxy_shadows": True, "proxy_sides": "both", "proxy_shapes": "planar"}, {}], res["recorded"]
