@@ -51,6 +51,18 @@ meta = {
     "versions": ck.get("versions"),
     "created": ck.get("created"),
 }
+
+
+def relative(v):
+    """``v`` with the checkout's own path taken out of every string (a model's metadata names no machine's folders)."""
+    if isinstance(v, dict):
+        return {k: relative(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [relative(x) for x in v]
+    return v.replace(str(ROOT) + "/", "") if isinstance(v, str) else v
+
+
+meta = relative(meta)
 out.with_suffix(".json").write_text(json.dumps(meta, indent=1, default=str))
 print(f"shipped {out} ({meta['bytes']} bytes), val PSNR {ck['best'].get('val_psnr'):.2f} dB")
 # the ONNX export beside it: the node renders it without torch; tests check it is the reproducible
