@@ -21,8 +21,15 @@ from .conftest import groups
 ALL_INPUTS = ("albedo", "normal", "depth", "direct", "ao", "lit")  # every input group the spec knows
 
 
-def _untrained(variant: str, spec=ch.DEFAULT_INPUTS, seed: int = 0, precision: str = "fp32-cl", **arch):
+# the inputs of a variant that reads other groups than the default's: boxmlp (compositor nodes) reads the one render
+VARIANT_INPUTS = {"boxmlp": ("albedo,normal,eevee_combined,sky", ch.COMBINED_TARGET)}
+
+
+def _untrained(variant: str, spec=None, seed: int = 0, precision: str = "fp32-cl", **arch):
     torch.manual_seed(seed)
+    if spec is None:
+        spec, target = VARIANT_INPUTS.get(variant, (ch.DEFAULT_INPUTS, None))
+        arch = arch | ({"target": target} if target else {})
     net = network.build(network.arch_for(variant, spec, **arch)).eval()
     return predictor.Predictor(net, checkpoint.make(net, "network", command="hard-cases"), precision=precision)
 
