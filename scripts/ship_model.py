@@ -9,7 +9,6 @@ models/NAME.json of the model that a remake replaces).
 """
 import argparse
 import json
-import shutil
 import sys
 from pathlib import Path
 
@@ -30,8 +29,21 @@ ck = torch.load(a.checkpoint, map_location="cpu", weights_only=True)
 for key in ("arch", "inputs", "channel_spec", "normalization", "history", "best", "dataset", "command"):
     if key not in ck:
         sys.exit(f"{a.checkpoint}: checkpoint lacks {key!r}")
+
+
+def relative(v):
+    """``v`` with the checkout's own path taken out of every string (a model's metadata names no machine's folders)."""
+    if isinstance(v, dict):
+        return {k: relative(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [relative(x) for x in v]
+    return v.replace(str(ROOT) + "/", "") if isinstance(v, str) else v
+
+
+# the checkpoint as trained, its command and dataset naming folders relative to the checkout
+ck.update({k: relative(ck[k]) for k in ("command", "dataset")})
 out = Path(a.out)
-shutil.copyfile(a.checkpoint, out)
+torch.save(ck, out)
 meta = {
     "model": out.name,
     "bytes": out.stat().st_size,
@@ -51,18 +63,6 @@ meta = {
     "versions": ck.get("versions"),
     "created": ck.get("created"),
 }
-
-
-def relative(v):
-    """``v`` with the checkout's own path taken out of every string (a model's metadata names no machine's folders)."""
-    if isinstance(v, dict):
-        return {k: relative(x) for k, x in v.items()}
-    if isinstance(v, list):
-        return [relative(x) for x in v]
-    return v.replace(str(ROOT) + "/", "") if isinstance(v, str) else v
-
-
-meta = relative(meta)
 out.with_suffix(".json").write_text(json.dumps(meta, indent=1, default=str))
 print(f"shipped {out} ({meta['bytes']} bytes), val PSNR {ck['best'].get('val_psnr'):.2f} dB")
 # the ONNX export beside it: the node renders it without torch; tests check it is the reproducible
