@@ -233,15 +233,10 @@ def one_render_settings(scene, proxies: dict | None = None) -> dict:
 
 def _wire(scene, group):
     """Render Layers -> the compiled group -> whatever read Render Layers' Image (else the group output)."""
-    from .compositor import _group_output, ensure_compositor
+    from .compositor import ensure_compositor, feed_output, render_layers
 
     tree = ensure_compositor(scene)
-    vl = scene.view_layers[0]
-    rl = next((n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers" and n.layer == vl.name), None)
-    if rl is None:
-        rl = tree.nodes.new("CompositorNodeRLayers")
-        rl.location = (-500, 0)
-        rl.layer = vl.name
+    rl = render_layers(tree, scene.view_layers[0])
     node = next((n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None
                  and LAYOUT_PROP in n.node_tree), None)
     consumers = []
@@ -254,12 +249,7 @@ def _wire(scene, group):
         tree.links.new(rl.outputs[name], node.inputs[name])
     for sock in consumers:
         tree.links.new(node.outputs[0], sock)
-    gout = _group_output(tree)
-    if gout is None:
-        gout = tree.nodes.new("NodeGroupOutput")
-        gout.location = (node.location.x + 300, node.location.y)
-    if not gout.inputs[0].is_linked:
-        tree.links.new(node.outputs[0], gout.inputs[0])
+    feed_output(tree, node)
     return tree, node
 
 

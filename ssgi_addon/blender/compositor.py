@@ -53,11 +53,8 @@ def _group_output(tree):
     return outs[0] if outs else None
 
 
-def wire(scene, view_layer=None):
-    """Insert an SSGI node after Render Layers in the scene's compositor, keeping the artist's nodes after
-    it: every link that leaves Render Layers' Image now leaves SSGI's output. Idempotent: an existing SSGI
-    node is reused. Returns (tree, ssgi_node, render_layers_node)."""
-    tree = ensure_compositor(scene)
+def render_layers(tree, view_layer=None):
+    """The tree's Render Layers node of ``view_layer`` (any, when None), added at the left when there is none."""
     rl = next((n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"
                and (view_layer is None or n.layer == view_layer.name)), None)
     if rl is None:
@@ -65,6 +62,26 @@ def wire(scene, view_layer=None):
         rl.location = (-500, 0)
         if view_layer is not None:
             rl.layer = view_layer.name
+    return rl
+
+
+def feed_output(tree, node) -> None:
+    """Link ``node``'s first output to the tree's group output (added right of ``node`` when there is none), unless
+    something feeds that output already."""
+    gout = _group_output(tree)
+    if gout is None:
+        gout = tree.nodes.new("NodeGroupOutput")
+        gout.location = (node.location.x + 300, node.location.y)
+    if not gout.inputs[0].is_linked:
+        tree.links.new(node.outputs[0], gout.inputs[0])
+
+
+def wire(scene, view_layer=None):
+    """Insert an SSGI node after Render Layers in the scene's compositor, keeping the artist's nodes after
+    it: every link that leaves Render Layers' Image now leaves SSGI's output. Idempotent: an existing SSGI
+    node is reused. Returns (tree, ssgi_node, render_layers_node)."""
+    tree = ensure_compositor(scene)
+    rl = render_layers(tree, view_layer)
     existing = ssgi_node.ssgi_nodes(tree)
     if existing:
         node = existing[0]
@@ -81,12 +98,7 @@ def wire(scene, view_layer=None):
     for sock in consumers:
         tree.links.new(node.outputs[0], sock)
     if not consumers:
-        gout = _group_output(tree)
-        if gout is None:
-            gout = tree.nodes.new("NodeGroupOutput")
-            gout.location = (node.location.x + 300, node.location.y)
-        if not gout.inputs[0].is_linked:
-            tree.links.new(node.outputs[0], gout.inputs[0])
+        feed_output(tree, node)
     return tree, node, rl
 
 

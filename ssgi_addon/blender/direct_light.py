@@ -319,7 +319,7 @@ def solid_emitters(scene) -> list[tuple]:
     return out
 
 
-def solid_proxy_lights(o, strength: float, colour, dg) -> list[tuple]:
+def solid_proxy_lights(o, strength: float, dg) -> list[tuple]:
     """[(world position, radius, power W)] of the sphere lights standing in for the non-planar emitter ``o``:
     power ``pi x strength x area`` in all (a Lambertian surface of that radiance; an open mesh, such as a lamp shade,
     gives off light from both sides of its faces: twice that), one sphere light at the centre of a compact emitter
@@ -400,6 +400,18 @@ def _hits_other(scene, dg, o, origin, ray, distance: float) -> bool:
     return True
 
 
+def _proxy_light(scene, emitter, kind: str, energy: float, colour, shadows: bool, made: list):
+    """A light of ``kind`` standing in for ``emitter``, linked to ``scene``'s collection and appended to ``made``."""
+    li = bpy.data.lights.new(f"ssgi_proxy_{emitter.name}", kind)
+    li.energy = float(energy)
+    li.color = colour
+    li.use_shadow = bool(shadows)
+    ob = bpy.data.objects.new(li.name, li)
+    scene.collection.objects.link(ob)
+    made.append(ob)
+    return ob
+
+
 def make_proxies(scene, shadows: bool = True, sides: str = "both", made: list | None = None,
                  shapes: str = "planar") -> list:
     """The lights ``emitter_proxies`` stands in for the emitters (area lights for the planar ones; with ``shapes``
@@ -416,29 +428,17 @@ def make_proxies(scene, shadows: bool = True, sides: str = "both", made: list | 
         front, back = open_sides(scene, o) if sides == "open" else (True, True)
         # an area light shines along its -Z: first the plane's front (+Z); no proxy for a side facing a surface
         for side in [s for s, is_open in ((rot @ flip, front), (rot, back)) if is_open]:
-            li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "AREA")
-            li.shape, li.size, li.size_y = "RECTANGLE", float(d.x), float(d.y)
-            li.energy = float(math.pi * strength * d.x * d.y)
-            li.color = colour
-            li.use_shadow = bool(shadows)
-            ob = bpy.data.objects.new(li.name, li)
-            scene.collection.objects.link(ob)
+            ob = _proxy_light(scene, o, "AREA", math.pi * strength * d.x * d.y, colour, shadows, made)
+            ob.data.shape, ob.data.size, ob.data.size_y = "RECTANGLE", float(d.x), float(d.y)
             ob.matrix_world = Matrix.Translation(o.matrix_world.translation) @ side.to_4x4()
-            made.append(ob)
     if shapes == "all":
         from .surround import _depsgraph
         dg = _depsgraph(scene)
         for o, strength, colour in solid_emitters(scene):
-            for pos, radius, power in solid_proxy_lights(o, strength, colour, dg):
-                li = bpy.data.lights.new(f"ssgi_proxy_{o.name}", "POINT")
-                li.shadow_soft_size = float(radius)
-                li.energy = float(power)
-                li.color = colour
-                li.use_shadow = bool(shadows)
-                ob = bpy.data.objects.new(li.name, li)
-                scene.collection.objects.link(ob)
+            for pos, radius, power in solid_proxy_lights(o, strength, dg):
+                ob = _proxy_light(scene, o, "POINT", power, colour, shadows, made)
+                ob.data.shadow_soft_size = float(radius)
                 ob.location = pos
-                made.append(ob)
     elif shapes != "planar":
         raise ValueError(f"proxy shapes {shapes!r}: 'planar' or 'all'")
     return made

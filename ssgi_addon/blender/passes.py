@@ -52,7 +52,7 @@ REST_LIGHT_GROUPS = DIFFUSE_LIGHT_GROUPS + ("eevee_combined",)
 # the other models has one on both sides. Emissive meshes that are not planar (orbs, lamp shades, neon tubes) get
 # sphere lights (direct_light.solid_proxy_lights): EEVEE's GI-off render gave a floor under an on-screen orb and tube
 # about 60 % of Cycles' light, with the stand-ins within 2 % (tests/blender/test_solid_emitter_proxies.py); the same
-# 171 artist rooms re-rendered with them trained a model 3.4 dB better on the artist test set in the same 7 minutes
+# 171 artist rooms rendered with them trained a model 2.95 dB better on the artist test set in the same 25 minutes
 # (docs/one_render.md). A model whose bake recorded other proxies gets those (recorded_proxy_options).
 ONE_RENDER_SETTINGS = {"proxy_shadows": False, "proxy_sides": "open", "proxy_shapes": "all"}
 
